@@ -1,0 +1,644 @@
+// glTF 2.0 (.gltf with external or data-URI buffers, .glb) → Scene.
+//
+// Order of checks: container (GLB header and chunks), JSON types (gltf_schema), tinygltf parse,
+// then every reference and byte range radbake will touch, so that the solver never reads past a
+// buffer or trusts a NaN. Every failure is one line "FILE: element: problem".
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <set>
+#include <sstream>
+
+#include "importers/gltf_document.h"
+#include "importers/gltf_schema.h"
+#include "importers/importers.h"
+
+namespace radbake {
+namespace {
+
+using Matrix4 = std::array<double, 16>;  // column-major, as glTF stores it
+
+constexpr Matrix4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+// A NORMAL this far from unit length is repaired (flat normal) with a warning.
+constexpr double kNormalLengthTolerance = 1e-3;
+
+struct Context {
+  std::string file;  // the name printed in messages
+  std::vector<std::string>* warnings;
+
+  [[noreturn]] void fail(ExitCode code, const std::string& message) const {
+    throw Error(code, file + ": " + message);
+  }
+  [[noreturn]] void invalid(const std::string& message) const { fail(ExitCode::kInvalidInput, message); }
+  void warn(const std::string& message) const { warnings->push_back(file + ": " + message); }
+};
+
+std::string firstLine(const std::string& text) {
+  std::string line = text.substr(0, text.find('\n'));
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  return line;
+}
+
+std::vector<unsigned char> readFile(const Context& ctx, const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) ctx.invalid("cannot open: no such file");
+  if (std::filesystem::is_directory(path, ec)) ctx.invalid("cannot open: is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) ctx.invalid("cannot open: permission denied or unreadable");
+  return std::vector<unsigned char>(std::istreambuf_iterator<char>(in), {});
+}
+
+uint32_t readU32(const unsigned char* p) {
+  return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+}
+
+// GLB container: 12-byte header, a JSON chunk, an optional BIN chunk. Returns the JSON text.
+std::string glbJson(const Context& ctx, const std::vector<unsigned char>& bytes) {
+  if (bytes.size() < 20) ctx.invalid("truncated GLB: " + std::to_string(bytes.size()) + " bytes, the header alone needs 20");
+  const uint32_t version = readU32(&bytes[4]);
+  const uint32_t length = readU32(&bytes[8]);
+  if (version != 2) ctx.fail(ExitCode::kUnsupported, "GLB version " + std::to_string(version) + " (only glTF 2.0 is supported)");
+  if (length > bytes.size())
+    ctx.invalid("truncated GLB: header says " + std::to_string(length) + " bytes, file has " + std::to_string(bytes.size()));
+  const uint32_t jsonLength = readU32(&bytes[12]);
+  const uint32_t jsonType = readU32(&bytes[16]);
+  if (jsonType != 0x4E4F534A) ctx.invalid("GLB chunk 0 is not JSON");
+  if (20ull + jsonLength > length)
+    ctx.invalid("truncated GLB: JSON chunk of " + std::to_string(jsonLength) + " bytes exceeds the file length " + std::to_string(length));
+  const uint64_t binStart = 20ull + jsonLength;
+  if (binStart + 8 <= length) {
+    const uint32_t binLength = readU32(&bytes[binStart]);
+    if (binStart + 8 + binLength > length)
+      ctx.invalid("truncated GLB: BIN chunk of " + std::to_string(binLength) + " bytes exceeds the file length " + std::to_string(length));
+  }
+  return std::string(reinterpret_cast<const char*>(&bytes[20]), jsonLength);
+}
+
+// Images are kept encoded, exactly as read: radbake writes them back unchanged and decodes only
+// what it samples. (This also keeps tinygltf from needing stb_image.)
+bool keepImageBytes(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                    const unsigned char* bytes, int size, void*) {
+  image->image.assign(bytes, bytes + size);
+  image->as_is = true;
+  return true;
+}
+
+const char* modeName(int mode) {
+  switch (mode) {
+    case TINYGLTF_MODE_POINTS: return "POINTS";
+    case TINYGLTF_MODE_LINE: return "LINES";
+    case TINYGLTF_MODE_LINE_LOOP: return "LINE_LOOP";
+    case TINYGLTF_MODE_LINE_STRIP: return "LINE_STRIP";
+    default: return "unknown";
+  }
+}
+
+int componentSize(int componentType) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+  }
+}
+
+int componentCount(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    case TINYGLTF_TYPE_MAT2: return 4;
+    case TINYGLTF_TYPE_MAT3: return 9;
+    case TINYGLTF_TYPE_MAT4: return 16;
+    default: return 0;
+  }
+}
+
+// One component as a double, normalized integers mapped as the glTF spec says.
+double readComponent(const unsigned char* p, int componentType, bool normalized) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      int8_t v; std::memcpy(&v, p, 1);
+      return normalized ? std::max(v / 127.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? *p / 255.0 : *p;
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t v; std::memcpy(&v, p, 2);
+      return normalized ? std::max(v / 32767.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t v; std::memcpy(&v, p, 2);
+      return normalized ? v / 65535.0 : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+      uint32_t v; std::memcpy(&v, p, 4);
+      return normalized ? v / 4294967295.0 : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+      float v; std::memcpy(&v, p, 4);
+      return v;
+    }
+  }
+  return 0;
+}
+
+// Checks that a buffer view's bytes lie inside its buffer.
+void checkBufferView(const Context& ctx, const tinygltf::Model& m, int index) {
+  const auto& view = m.bufferViews[index];
+  const std::string name = "buffer view " + std::to_string(index);
+  if (view.buffer < 0 || view.buffer >= int(m.buffers.size()))
+    ctx.invalid(name + ": buffer " + std::to_string(view.buffer) + " does not exist");
+  const auto& buffer = m.buffers[view.buffer];
+  if (uint64_t(view.byteOffset) + view.byteLength > buffer.data.size())
+    ctx.invalid(name + ": bytes " + std::to_string(view.byteOffset) + ".." +
+                std::to_string(uint64_t(view.byteOffset) + view.byteLength) + " exceed buffer " +
+                std::to_string(view.buffer) + " length " + std::to_string(buffer.data.size()));
+}
+
+// Reads accessor `index` into doubles (count × components), with stride, normalization and sparse
+// substitution. `what` names the element using it, for messages.
+std::vector<double> readAccessor(const Context& ctx, const tinygltf::Model& m, int index, const std::string& what) {
+  if (index < 0 || index >= int(m.accessors.size()))
+    ctx.invalid(what + ": accessor " + std::to_string(index) + " does not exist");
+  const auto& acc = m.accessors[index];
+  const std::string name = what + ": accessor " + std::to_string(index);
+  const int csize = componentSize(acc.componentType);
+  const int ccount = componentCount(acc.type);
+  if (csize == 0) ctx.invalid(name + ": invalid componentType " + std::to_string(acc.componentType));
+  if (ccount == 0) ctx.invalid(name + ": invalid type");
+  std::vector<double> out(acc.count * ccount, 0.0);
+  if (acc.bufferView >= 0) {
+    if (acc.bufferView >= int(m.bufferViews.size()))
+      ctx.invalid(name + ": buffer view " + std::to_string(acc.bufferView) + " does not exist");
+    checkBufferView(ctx, m, acc.bufferView);
+    const auto& view = m.bufferViews[acc.bufferView];
+    const size_t elementSize = size_t(csize) * ccount;
+    const size_t stride = view.byteStride ? view.byteStride : elementSize;
+    if (acc.count > 0 && acc.byteOffset + stride * (acc.count - 1) + elementSize > view.byteLength)
+      ctx.invalid(name + ": count " + std::to_string(acc.count) + " exceeds buffer view " +
+                  std::to_string(acc.bufferView) + " length " + std::to_string(view.byteLength));
+    const unsigned char* base = m.buffers[view.buffer].data.data() + view.byteOffset + acc.byteOffset;
+    for (size_t i = 0; i < acc.count; ++i)
+      for (int c = 0; c < ccount; ++c)
+        out[i * ccount + c] = readComponent(base + i * stride + c * csize, acc.componentType, acc.normalized);
+  }
+  if (acc.sparse.isSparse) {
+    const auto& sp = acc.sparse;
+    auto slice = [&](int viewIndex, size_t offset, size_t bytes, const char* part) -> const unsigned char* {
+      if (viewIndex < 0 || viewIndex >= int(m.bufferViews.size()))
+        ctx.invalid(name + ": sparse " + part + " buffer view " + std::to_string(viewIndex) + " does not exist");
+      checkBufferView(ctx, m, viewIndex);
+      const auto& view = m.bufferViews[viewIndex];
+      if (offset + bytes > view.byteLength) ctx.invalid(name + ": sparse " + part + " exceed buffer view " + std::to_string(viewIndex));
+      return m.buffers[view.buffer].data.data() + view.byteOffset + offset;
+    };
+    const int isize = componentSize(sp.indices.componentType);
+    if (isize == 0) ctx.invalid(name + ": sparse indices have an invalid componentType");
+    const unsigned char* idx = slice(sp.indices.bufferView, sp.indices.byteOffset, size_t(sp.count) * isize, "indices");
+    const unsigned char* val = slice(sp.values.bufferView, sp.values.byteOffset, size_t(sp.count) * csize * ccount, "values");
+    for (int i = 0; i < sp.count; ++i) {
+      const double target = readComponent(idx + size_t(i) * isize, sp.indices.componentType, false);
+      if (target >= double(acc.count)) ctx.invalid(name + ": sparse index " + std::to_string(size_t(target)) + " out of range");
+      for (int c = 0; c < ccount; ++c)
+        out[size_t(target) * ccount + c] = readComponent(val + (size_t(i) * ccount + c) * csize, acc.componentType, acc.normalized);
+    }
+  }
+  return out;
+}
+
+Matrix4 multiply(const Matrix4& a, const Matrix4& b) {
+  Matrix4 r{};
+  for (int c = 0; c < 4; ++c)
+    for (int row = 0; row < 4; ++row) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += a[k * 4 + row] * b[c * 4 + k];
+      r[c * 4 + row] = s;
+    }
+  return r;
+}
+
+Matrix4 localMatrix(const tinygltf::Node& node) {
+  if (node.matrix.size() == 16) {
+    Matrix4 m;
+    std::copy(node.matrix.begin(), node.matrix.end(), m.begin());
+    return m;
+  }
+  const double tx = node.translation.size() == 3 ? node.translation[0] : 0;
+  const double ty = node.translation.size() == 3 ? node.translation[1] : 0;
+  const double tz = node.translation.size() == 3 ? node.translation[2] : 0;
+  double qx = 0, qy = 0, qz = 0, qw = 1;
+  if (node.rotation.size() == 4) { qx = node.rotation[0]; qy = node.rotation[1]; qz = node.rotation[2]; qw = node.rotation[3]; }
+  const double qn = std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
+  if (qn > 0) { qx /= qn; qy /= qn; qz /= qn; qw /= qn; }
+  const double sx = node.scale.size() == 3 ? node.scale[0] : 1;
+  const double sy = node.scale.size() == 3 ? node.scale[1] : 1;
+  const double sz = node.scale.size() == 3 ? node.scale[2] : 1;
+  // T * R * S, column-major.
+  const double r00 = 1 - 2 * (qy * qy + qz * qz), r01 = 2 * (qx * qy - qz * qw), r02 = 2 * (qx * qz + qy * qw);
+  const double r10 = 2 * (qx * qy + qz * qw), r11 = 1 - 2 * (qx * qx + qz * qz), r12 = 2 * (qy * qz - qx * qw);
+  const double r20 = 2 * (qx * qz - qy * qw), r21 = 2 * (qy * qz + qx * qw), r22 = 1 - 2 * (qx * qx + qy * qy);
+  return {r00 * sx, r10 * sx, r20 * sx, 0, r01 * sy, r11 * sy, r21 * sy, 0,
+          r02 * sz, r12 * sz, r22 * sz, 0, tx, ty, tz, 1};
+}
+
+Vec3 transformPoint(const Matrix4& m, const Vec3& p) {
+  return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
+          m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
+}
+
+// Normals transform by the inverse transpose of the upper 3×3 (its cofactor matrix, up to the
+// positive or negative scale that normalization removes; the sign is fixed by the determinant).
+struct NormalMatrix {
+  std::array<double, 9> c;  // row-major cofactor matrix of the upper 3×3, sign-corrected
+  double determinant;
+};
+
+NormalMatrix normalMatrix(const Matrix4& m) {
+  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
+  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  std::array<double, 9> cof{e * i - f * h, -(d * i - f * g), d * h - e * g,
+                            -(b * i - c * h), a * i - c * g, -(a * h - b * g),
+                            b * f - c * e, -(a * f - c * d), a * e - b * d};
+  // The cofactor matrix C (C_ij = signed minor of M_ij) is det·(M⁻¹)ᵀ; dividing by sign(det) keeps
+  // the normal's orientation for mirroring transforms, and normalization removes |det|.
+  const double s = det < 0 ? -1.0 : 1.0;
+  for (double& v : cof) v *= s;
+  return {cof, det};
+}
+
+Vec3 transformNormal(const NormalMatrix& n, const Vec3& v) {
+  const auto& c = n.c;
+  return normalize(Vec3{c[0] * v.x + c[1] * v.y + c[2] * v.z, c[3] * v.x + c[4] * v.y + c[5] * v.z,
+                        c[6] * v.x + c[7] * v.y + c[8] * v.z});
+}
+
+std::string extensionsNotSupported(const std::vector<std::string>& required) {
+  static const std::set<std::string> kSupportedRequired = {
+      "KHR_mesh_quantization", "KHR_texture_transform", "KHR_materials_emissive_strength",
+      "KHR_materials_unlit", "KHR_materials_pbrSpecularGlossiness"};
+  for (const std::string& ext : required)
+    if (!kSupportedRequired.count(ext)) return ext;
+  return "";
+}
+
+void checkIndex(const Context& ctx, int index, size_t size, const std::string& what, const char* target) {
+  if (index >= 0 && size_t(index) >= size)
+    ctx.invalid(what + ": " + target + " " + std::to_string(index) + " does not exist (the file has " +
+                std::to_string(size) + ")");
+}
+
+// References between top-level objects: all must resolve before anything is read.
+void checkReferences(const Context& ctx, const tinygltf::Model& m) {
+  for (size_t i = 0; i < m.scenes.size(); ++i)
+    for (int n : m.scenes[i].nodes) checkIndex(ctx, n, m.nodes.size(), "scene " + std::to_string(i), "node");
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    const auto& node = m.nodes[i];
+    const std::string what = "node " + std::to_string(i);
+    checkIndex(ctx, node.mesh, m.meshes.size(), what, "mesh");
+    checkIndex(ctx, node.camera, m.cameras.size(), what, "camera");
+    checkIndex(ctx, node.skin, m.skins.size(), what, "skin");
+    for (int c : node.children) checkIndex(ctx, c, m.nodes.size(), what, "child node");
+    if (!node.matrix.empty() && node.matrix.size() != 16) ctx.invalid(what + ": matrix must have 16 numbers");
+    for (double v : node.matrix)
+      if (!std::isfinite(v)) ctx.invalid(what + ": matrix is not finite");
+    for (const auto* arr : {&node.translation, &node.rotation, &node.scale})
+      for (double v : *arr)
+        if (!std::isfinite(v)) ctx.invalid(what + ": translation/rotation/scale is not finite");
+  }
+  for (size_t i = 0; i < m.meshes.size(); ++i)
+    for (size_t p = 0; p < m.meshes[i].primitives.size(); ++p) {
+      const auto& prim = m.meshes[i].primitives[p];
+      const std::string what = "mesh " + std::to_string(i) + " primitive " + std::to_string(p);
+      checkIndex(ctx, prim.material, m.materials.size(), what, "material");
+      checkIndex(ctx, prim.indices, m.accessors.size(), what, "indices accessor");
+      for (const auto& [semantic, acc] : prim.attributes)
+        checkIndex(ctx, acc, m.accessors.size(), what + " " + semantic, "accessor");
+    }
+  for (size_t i = 0; i < m.bufferViews.size(); ++i) checkBufferView(ctx, m, int(i));
+  for (size_t i = 0; i < m.accessors.size(); ++i)
+    checkIndex(ctx, m.accessors[i].bufferView, m.bufferViews.size(), "accessor " + std::to_string(i), "buffer view");
+  for (size_t i = 0; i < m.textures.size(); ++i) {
+    checkIndex(ctx, m.textures[i].source, m.images.size(), "texture " + std::to_string(i), "image");
+    checkIndex(ctx, m.textures[i].sampler, m.samplers.size(), "texture " + std::to_string(i), "sampler");
+  }
+  for (size_t i = 0; i < m.images.size(); ++i)
+    checkIndex(ctx, m.images[i].bufferView, m.bufferViews.size(), "image " + std::to_string(i), "buffer view");
+  auto checkTexture = [&](const std::string& what, int index) {
+    if (index < 0 && index != -1) ctx.invalid(what + ": texture index must be non-negative");
+    checkIndex(ctx, index, m.textures.size(), what, "texture");
+  };
+  for (size_t i = 0; i < m.materials.size(); ++i) {
+    const auto& mat = m.materials[i];
+    const std::string what = "material " + std::to_string(i);
+    checkTexture(what + " baseColorTexture", mat.pbrMetallicRoughness.baseColorTexture.index);
+    checkTexture(what + " metallicRoughnessTexture", mat.pbrMetallicRoughness.metallicRoughnessTexture.index);
+    checkTexture(what + " normalTexture", mat.normalTexture.index);
+    checkTexture(what + " occlusionTexture", mat.occlusionTexture.index);
+    checkTexture(what + " emissiveTexture", mat.emissiveTexture.index);
+  }
+  // The node graph must be a forest: no node with two parents, no cycle.
+  std::vector<int> parent(m.nodes.size(), -1);
+  for (size_t i = 0; i < m.nodes.size(); ++i)
+    for (int c : m.nodes[i].children) {
+      if (parent[c] != -1)
+        ctx.invalid("node " + std::to_string(c) + ": has two parents (nodes " + std::to_string(parent[c]) + " and " +
+                    std::to_string(i) + ")");
+      parent[c] = int(i);
+    }
+  for (size_t i = 0; i < m.nodes.size(); ++i) {
+    size_t steps = 0;
+    for (int n = int(i); n != -1; n = parent[n])
+      if (++steps > m.nodes.size()) ctx.invalid("node " + std::to_string(i) + ": is part of a node cycle");
+  }
+  for (size_t s = 0; s < m.scenes.size(); ++s)
+    for (int n : m.scenes[s].nodes)
+      if (parent[n] != -1) ctx.invalid("scene " + std::to_string(s) + ": node " + std::to_string(n) + " is not a root node");
+}
+
+Material readMaterial(const tinygltf::Material& mat, int index) {
+  Material out;
+  out.name = mat.name.empty() ? "material " + std::to_string(index) : mat.name;
+  out.gltfIndex = index;
+  const auto& pbr = mat.pbrMetallicRoughness;
+  const double metallic = std::clamp(pbr.metallicFactor, 0.0, 1.0);
+  // Metals reflect no diffuse light; partial metalness scales the diffuse part as the glTF BRDF does.
+  if (pbr.baseColorFactor.size() >= 3)
+    out.reflectance = Vec3{pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2]} * (1 - metallic);
+  double strength = 1;
+  if (auto it = mat.extensions.find("KHR_materials_emissive_strength"); it != mat.extensions.end()) {
+    const auto& v = it->second.Get("emissiveStrength");
+    if (v.IsNumber()) strength = v.GetNumberAsDouble();
+  }
+  if (mat.emissiveFactor.size() >= 3)
+    out.emission = Vec3{mat.emissiveFactor[0], mat.emissiveFactor[1], mat.emissiveFactor[2]} * strength;
+  out.doubleSided = mat.doubleSided;
+  return out;
+}
+
+// Triangle list from the primitive's mode; indices already range-checked.
+std::vector<std::array<uint32_t, 3>> triangulate(int mode, const std::vector<uint32_t>& idx) {
+  std::vector<std::array<uint32_t, 3>> tris;
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
+    for (size_t i = 0; i + 2 < idx.size(); i += 3) tris.push_back({idx[i], idx[i + 1], idx[i + 2]});
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+    // glTF: triangle i is (i, i+1, i+2) for even i and (i+1, i, i+2) for odd i (keeps the winding).
+    for (size_t i = 0; i + 2 < idx.size(); ++i)
+      tris.push_back(i % 2 == 0 ? std::array<uint32_t, 3>{idx[i], idx[i + 1], idx[i + 2]}
+                                : std::array<uint32_t, 3>{idx[i + 1], idx[i], idx[i + 2]});
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+    for (size_t i = 1; i + 1 < idx.size(); ++i) tris.push_back({idx[i], idx[i + 1], idx[0]});
+  }
+  return tris;
+}
+
+struct Importer {
+  Context ctx;
+  const tinygltf::Model& m;
+  Scene& scene;
+  std::set<std::pair<int, int>> skippedModes;
+
+  void addPrimitive(int nodeIndex, int meshIndex, int primIndex, const Matrix4& world) {
+    const auto& prim = m.meshes[meshIndex].primitives[primIndex];
+    const std::string what = "mesh " + std::to_string(meshIndex) + " primitive " + std::to_string(primIndex);
+    if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+        prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+      if (skippedModes.insert({meshIndex, primIndex}).second)
+        ctx.warn(what + ": mode " + modeName(prim.mode) + " has no surface to light; skipped");
+      return;
+    }
+    auto posIt = prim.attributes.find("POSITION");
+    if (posIt == prim.attributes.end()) {
+      ctx.warn(what + ": no POSITION attribute; skipped");
+      return;
+    }
+    const auto& posAcc = m.accessors[posIt->second];
+    if (posAcc.type != TINYGLTF_TYPE_VEC3) ctx.invalid(what + ": POSITION accessor " + std::to_string(posIt->second) + " is not VEC3");
+    const std::vector<double> pos = readAccessor(ctx, m, posIt->second, what + " POSITION");
+    const size_t count = posAcc.count;
+    for (size_t i = 0; i < pos.size(); ++i)
+      if (!std::isfinite(pos[i]))
+        ctx.invalid(what + ": POSITION accessor " + std::to_string(posIt->second) + " element " + std::to_string(i / 3) +
+                    " is not finite (" + std::to_string(pos[i]) + ")");
+
+    std::vector<uint32_t> idx;
+    if (prim.indices >= 0) {
+      const auto& ia = m.accessors[prim.indices];
+      if (ia.type != TINYGLTF_TYPE_SCALAR) ctx.invalid(what + ": indices accessor " + std::to_string(prim.indices) + " is not SCALAR");
+      const std::vector<double> raw = readAccessor(ctx, m, prim.indices, what + " indices");
+      idx.reserve(raw.size());
+      for (size_t i = 0; i < raw.size(); ++i) {
+        if (raw[i] >= double(count))
+          ctx.invalid(what + ": indices accessor " + std::to_string(prim.indices) + " element " + std::to_string(i) + " is " +
+                      std::to_string(uint64_t(raw[i])) + ", past the " + std::to_string(count) + " vertices");
+        idx.push_back(uint32_t(raw[i]));
+      }
+    } else {
+      idx.resize(count);
+      for (size_t i = 0; i < count; ++i) idx[i] = uint32_t(i);
+    }
+    const bool isTriangleList = prim.mode == TINYGLTF_MODE_TRIANGLES;
+    if (isTriangleList && idx.size() % 3 != 0)
+      ctx.invalid(what + ": " + std::to_string(idx.size()) + " vertices do not make whole triangles");
+
+    Primitive out;
+    out.node = nodeIndex;
+    out.mesh = meshIndex;
+    out.primitive = primIndex;
+    out.material = prim.material >= 0 ? prim.material : int(scene.materials.size()) - 1;
+    out.positions.resize(count);
+    for (size_t i = 0; i < count; ++i) out.positions[i] = transformPoint(world, {pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]});
+    const NormalMatrix nm = normalMatrix(world);
+    const bool mirrored = nm.determinant < 0;
+    out.triangles = triangulate(prim.mode, idx);
+    if (mirrored)  // glTF: a negative determinant flips the front face to clockwise
+      for (auto& t : out.triangles) std::swap(t[1], t[2]);
+
+    // Zero-area triangles carry no light; drop them and say how many.
+    size_t dropped = 0;
+    std::erase_if(out.triangles, [&](const std::array<uint32_t, 3>& t) {
+      const Vec3 n = cross(out.positions[t[1]] - out.positions[t[0]], out.positions[t[2]] - out.positions[t[0]]);
+      const bool degenerate = !(length(n) > 0);
+      dropped += degenerate;
+      return degenerate;
+    });
+    if (dropped)
+      ctx.warn(what + ": " + std::to_string(dropped) + " zero-area triangle" + (dropped > 1 ? "s" : "") + " dropped");
+
+    out.normals.assign(count, Vec3{});
+    auto nIt = prim.attributes.find("NORMAL");
+    bool repaired = false;
+    if (nIt != prim.attributes.end() && m.accessors[nIt->second].count == count &&
+        m.accessors[nIt->second].type == TINYGLTF_TYPE_VEC3) {
+      const std::vector<double> nrm = readAccessor(ctx, m, nIt->second, what + " NORMAL");
+      out.hasNormals = true;
+      for (size_t i = 0; i < count; ++i) {
+        const Vec3 n{nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]};
+        const double len = length(n);
+        if (!isFinite(n) || std::abs(len - 1) > kNormalLengthTolerance) {
+          repaired = true;
+          out.hasNormals = false;
+          break;
+        }
+        out.normals[i] = transformNormal(nm, n);
+      }
+      if (repaired)
+        ctx.warn(what + ": NORMAL accessor " + std::to_string(nIt->second) +
+                 " has non-unit or non-finite normals; replaced by flat normals from the winding");
+    } else if (nIt != prim.attributes.end()) {
+      ctx.invalid(what + ": NORMAL accessor " + std::to_string(nIt->second) + " does not match POSITION (count or type)");
+    }
+    if (!out.hasNormals) {
+      // glTF: without NORMAL, use flat normals. Area-weighted face normals per vertex; a vertex
+      // shared by non-coplanar triangles is split by the tessellator, which uses face normals.
+      std::fill(out.normals.begin(), out.normals.end(), Vec3{});
+      for (const auto& t : out.triangles) {
+        const Vec3 n = cross(out.positions[t[1]] - out.positions[t[0]], out.positions[t[2]] - out.positions[t[0]]);
+        for (uint32_t v : t) out.normals[v] += n;
+      }
+      for (auto& n : out.normals) n = normalize(n);
+    }
+    checkTexcoords(prim, what);
+    scene.primitives.push_back(std::move(out));
+  }
+
+  // Every texture a material uses must find its TEXCOORD_n on the primitive.
+  void checkTexcoords(const tinygltf::Primitive& prim, const std::string& what) {
+    if (prim.material < 0) return;
+    const auto& mat = m.materials[prim.material];
+    const std::pair<const char*, std::pair<int, int>> uses[] = {
+        {"baseColorTexture", {mat.pbrMetallicRoughness.baseColorTexture.index, mat.pbrMetallicRoughness.baseColorTexture.texCoord}},
+        {"metallicRoughnessTexture", {mat.pbrMetallicRoughness.metallicRoughnessTexture.index, mat.pbrMetallicRoughness.metallicRoughnessTexture.texCoord}},
+        {"normalTexture", {mat.normalTexture.index, mat.normalTexture.texCoord}},
+        {"occlusionTexture", {mat.occlusionTexture.index, mat.occlusionTexture.texCoord}},
+        {"emissiveTexture", {mat.emissiveTexture.index, mat.emissiveTexture.texCoord}}};
+    for (const auto& [slot, use] : uses) {
+      if (use.first < 0) continue;
+      const std::string semantic = "TEXCOORD_" + std::to_string(use.second);
+      if (!prim.attributes.count(semantic))
+        ctx.invalid(what + ": material " + std::to_string(prim.material) + " " + slot + " needs " + semantic +
+                    ", which the primitive does not have");
+    }
+  }
+
+  void visit(int nodeIndex, const Matrix4& parentWorld) {
+    const auto& node = m.nodes[nodeIndex];
+    const Matrix4 world = multiply(parentWorld, localMatrix(node));
+    if (node.mesh >= 0)
+      for (size_t p = 0; p < m.meshes[node.mesh].primitives.size(); ++p) addPrimitive(nodeIndex, node.mesh, int(p), world);
+    for (int child : node.children) visit(child, world);
+  }
+};
+
+}  // namespace
+
+bool Scene::hasEmitter() const {
+  for (const Primitive& p : primitives) {
+    const Vec3& e = materials[p.material].emission;
+    if (!p.triangles.empty() && (e.x > 0 || e.y > 0 || e.z > 0)) return true;
+  }
+  return false;
+}
+
+Scene importScene(const std::string& path, const ImportOptions& options) {
+  Scene scene;
+  scene.path = path;
+  Context ctx{std::filesystem::path(path).filename().string(), &scene.warnings};
+  if (ctx.file.empty()) ctx.file = path;
+
+  const std::vector<unsigned char> bytes = readFile(ctx, path);
+  const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  std::string jsonText;
+  if (binary) {
+    jsonText = glbJson(ctx, bytes);
+  } else {
+    size_t first = 0;
+    while (first < bytes.size() && std::isspace(bytes[first])) ++first;
+    if (first == bytes.size() || bytes[first] != '{')
+      ctx.invalid(bytes.empty() ? "not a glTF file (empty)" : "not a glTF file (neither GLB nor JSON)");
+    jsonText.assign(bytes.begin(), bytes.end());
+  }
+  if (std::string problem = checkGltfSchema(jsonText); !problem.empty()) ctx.invalid(problem);
+  const JsonSummary summary = summarizeGltfJson(jsonText);
+  if (std::string ext = extensionsNotSupported(summary.extensionsRequired); !ext.empty()) {
+    const std::string message = "requires extension " + ext + ", which radbake does not support";
+    if (options.requireSupportedExtensions) ctx.fail(ExitCode::kUnsupported, message);
+    ctx.warn(message + "; its geometry is not read");
+    scene.counts = summary.counts;
+    scene.extensionsUsed = summary.extensionsUsed;
+    return scene;
+  }
+
+  auto document = std::make_shared<SourceDocument>();
+  document->binary = binary;
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(keepImageBytes, nullptr);
+  loader.SetStoreOriginalJSONForExtrasAndExtensions(false);
+  std::string err, warn;
+  const std::string baseDir = std::filesystem::path(path).parent_path().string();
+  bool ok = binary ? loader.LoadBinaryFromMemory(&document->model, &err, &warn, bytes.data(), unsigned(bytes.size()), baseDir)
+                   : loader.LoadASCIIFromString(&document->model, &err, &warn, jsonText.data(), unsigned(jsonText.size()), baseDir);
+  if (!ok) ctx.invalid(firstLine(err.empty() ? std::string("could not be parsed as glTF") : err));
+  tinygltf::Model& m = document->model;
+  if (m.asset.version.rfind("2.", 0) != 0)
+    ctx.fail(ExitCode::kUnsupported, "asset version \"" + m.asset.version + "\" (only glTF 2.0 is supported)");
+  for (size_t i = 0; i < m.images.size(); ++i)
+    if (m.images[i].bufferView < 0 && m.images[i].image.empty())
+      ctx.invalid("image " + std::to_string(i) + ": cannot read \"" + m.images[i].uri + "\"");
+
+  checkReferences(ctx, m);
+  if (m.defaultScene >= int(m.scenes.size()))
+    ctx.invalid("scene " + std::to_string(m.defaultScene) + " does not exist (the file has " + std::to_string(m.scenes.size()) + " scenes)");
+
+  for (size_t i = 0; i < m.materials.size(); ++i) scene.materials.push_back(readMaterial(m.materials[i], int(i)));
+  scene.materials.push_back(readMaterial(tinygltf::Material{}, -1));
+  scene.materials.back().name = "default material";
+
+  Importer importer{ctx, m, scene, {}};
+  const int sceneIndex = m.defaultScene >= 0 ? m.defaultScene : (m.scenes.empty() ? -1 : 0);
+  if (sceneIndex >= 0)
+    for (int root : m.scenes[sceneIndex].nodes) importer.visit(root, kIdentity);
+  if (!m.skins.empty()) ctx.warn("skins are baked at rest pose (" + std::to_string(m.skins.size()) + " skin(s))");
+  for (size_t i = 0; i < m.meshes.size(); ++i)
+    for (const auto& prim : m.meshes[i].primitives)
+      if (!prim.targets.empty()) {
+        ctx.warn("mesh " + std::to_string(i) + ": morph targets are baked at rest pose (weights ignored)");
+        break;
+      }
+
+  SceneCounts& c = scene.counts;
+  c.nodes = int(m.nodes.size());
+  c.meshes = int(m.meshes.size());
+  for (const auto& mesh : m.meshes) c.primitives += int(mesh.primitives.size());
+  c.materials = int(m.materials.size());
+  c.textures = int(m.textures.size());
+  c.images = int(m.images.size());
+  c.cameras = int(m.cameras.size());
+  c.lights = int(m.lights.size());
+  c.skins = int(m.skins.size());
+  c.animations = int(m.animations.size());
+  c.scenes = int(m.scenes.size());
+  for (const auto& mesh : m.meshes)
+    for (const auto& prim : mesh.primitives)
+      if (auto it = prim.attributes.find("POSITION"); it != prim.attributes.end()) c.vertices += m.accessors[it->second].count;
+  scene.extensionsUsed = m.extensionsUsed;
+  scene.document = std::move(document);
+  return scene;
+}
+
+}  // namespace radbake
+
+namespace radbake {
+
+std::vector<double> readAccessorValues(const tinygltf::Model& model, int index) {
+  std::vector<std::string> unused;
+  return readAccessor(Context{"", &unused}, model, index, "accessor");
+}
+
+}  // namespace radbake

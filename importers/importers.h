@@ -1,0 +1,89 @@
+// importers: read a .gltf/.glb into a Scene (world-space triangles, materials, the source document).
+//
+// The Scene is plain data: every later stage reads it without knowing glTF. The parsed source
+// document travels with it (opaque here) so the exporter can write back everything radbake did not
+// touch.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "importers/vec3.h"
+
+namespace radbake {
+
+// Exit codes of the command line, shared by every stage that can fail (DESIGN.md).
+enum class ExitCode : int {
+  kOk = 0,
+  kUsage = 1,
+  kInvalidInput = 2,
+  kUnsupported = 3,
+  kCannotWrite = 4,
+};
+
+// A failure that ends the run: one line naming the file and the element, and the exit code.
+class Error : public std::runtime_error {
+ public:
+  Error(ExitCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  ExitCode code() const { return code_; }
+
+ private:
+  ExitCode code_;
+};
+
+// Lambertian material as the solver sees it (DESIGN.md "Units").
+struct Material {
+  std::string name;
+  int gltfIndex = -1;             // -1: the glTF default material
+  Vec3 reflectance{1, 1, 1};      // ρ = baseColorFactor (linear); 0 for metals
+  Vec3 emission{0, 0, 0};         // L⁰ = emissiveFactor × KHR_materials_emissive_strength
+  bool doubleSided = false;
+};
+
+// One glTF primitive placed in the world by one node: triangles only, counter-clockwise seen from
+// the front in world space (winding already flipped for mirroring transforms).
+struct Primitive {
+  int node = -1;
+  int mesh = -1;
+  int primitive = -1;
+  int material = 0;                                  // index into Scene::materials
+  std::vector<Vec3> positions;                       // world space, one per glTF vertex
+  std::vector<Vec3> normals;                         // world space, unit; flat normals if NORMAL is absent
+  bool hasNormals = false;                           // whether NORMAL came from the file
+  std::vector<std::array<uint32_t, 3>> triangles;    // indices into positions
+};
+
+struct SourceDocument;  // the parsed glTF, defined in importers/gltf_document.h for the exporter only
+
+struct SceneCounts {
+  int nodes = 0, meshes = 0, primitives = 0, materials = 0, textures = 0, images = 0;
+  int cameras = 0, lights = 0, skins = 0, animations = 0, scenes = 0;
+  long long vertices = 0;  // Σ accessor count of POSITION over all primitives of all meshes
+};
+
+struct Scene {
+  std::string path;
+  std::vector<Material> materials;    // glTF materials in order, then the default material
+  std::vector<Primitive> primitives;  // every triangle primitive instance of the default scene
+  std::vector<std::string> warnings;  // each names the file and the element
+  SceneCounts counts;                 // what the document holds (for `radbake info`)
+  std::vector<std::string> extensionsUsed;
+  std::shared_ptr<const SourceDocument> document;
+
+  bool hasEmitter() const;
+};
+
+struct ImportOptions {
+  // false (radbake info): report extensions radbake cannot bake instead of failing on them.
+  bool requireSupportedExtensions = true;
+};
+
+// Reads INPUT (.gltf or .glb). Throws Error (exit 2 invalid, 3 unsupported) with one line naming
+// the file and the broken element.
+Scene importScene(const std::string& path, const ImportOptions& options = {});
+
+}  // namespace radbake

@@ -1,0 +1,316 @@
+#include "plugin/cli/cli.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <unistd.h>
+
+#include "exporters/exporters.h"
+#include "importers/importers.h"
+#include "radiosity/radiosity.h"
+#include "tessellate/tessellate.h"
+
+#ifndef RADBAKE_VERSION
+#define RADBAKE_VERSION "0.0.0"
+#endif
+
+namespace radbake {
+namespace {
+
+constexpr const char* kExitCodes =
+    "exit codes: 0 ok, 1 usage, 2 invalid input, 3 unsupported feature, 4 cannot write output";
+
+// Stage progress on stderr: a bar for people, JSON lines for the Blender add-on and pipelines.
+class Progress {
+ public:
+  Progress(ProgressStyle style, std::ostream& err) : style_(style), err_(err) {
+    if (style_ == ProgressStyle::kAuto)
+      style_ = &err == &std::cerr && ::isatty(STDERR_FILENO) ? ProgressStyle::kBar : ProgressStyle::kNone;
+  }
+  ~Progress() {
+    if (barOpen_) err_ << "\n";  // an error message must start on its own line
+  }
+
+  void stage(const std::string& name) {
+    finishBar();
+    stage_ = name;
+    report(0);
+  }
+  void report(double fraction) {
+    if (style_ == ProgressStyle::kJson) {
+      err_ << nlohmann::json{{"stage", stage_}, {"progress", std::round(fraction * 1000) / 1000}}.dump() << "\n" << std::flush;
+    } else if (style_ == ProgressStyle::kBar) {
+      const int filled = int(std::clamp(fraction, 0.0, 1.0) * 30);
+      err_ << "\r" << std::left << std::setw(10) << stage_ << " [" << std::string(filled, '#')
+           << std::string(30 - filled, ' ') << "] " << std::setw(3) << int(fraction * 100) << "%" << std::flush;
+      barOpen_ = true;
+    }
+  }
+  void finishBar() {
+    if (barOpen_) {
+      report(1);
+      err_ << "\n";
+      barOpen_ = false;
+    }
+  }
+
+ private:
+  ProgressStyle style_;
+  std::ostream& err_;
+  std::string stage_;
+  bool barOpen_ = false;
+};
+
+// Options whose stage is not built yet: refuse with exit 3 rather than ignore them.
+std::string unbuiltOption(const Options& o) {
+  if (o.method == "constant") return "--method constant (the constant-patch baseline is not built yet)";
+  if (!o.lightmap.empty()) return "--lightmap (lightmap output is not built yet)";
+  if (o.exposure || !o.view.empty() || !o.display.empty() || !o.ocioConfig.empty())
+    return "--exposure/--view/--display/--ocio-config (OpenColorIO display shaping is not built yet)";
+  if (!o.probe.empty() || !o.probeOut.empty()) return "--probe/--probe-out (probing is not built yet)";
+  if (o.sky) return "--sky (sky lighting is not built yet)";
+  return "";
+}
+
+std::string lowerExtension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+void checkInputKind(const std::string& input) {
+  const std::string ext = lowerExtension(input);
+  if (ext == ".bpt")
+    throw Error(ExitCode::kUnsupported, std::filesystem::path(input).filename().string() +
+                                            ": Bezier patch files (.bpt) are not supported yet");
+}
+
+nlohmann::json vec3Json(const Vec3& v) { return {v.x, v.y, v.z}; }
+
+void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
+  const SceneCounts& c = scene.counts;
+  long long triangles = 0;
+  for (const Primitive& p : scene.primitives) triangles += p.triangles.size();
+  if (options.json) {
+    nlohmann::json j{{"file", scene.path},
+                     {"scenes", c.scenes}, {"nodes", c.nodes}, {"meshes", c.meshes}, {"primitives", c.primitives},
+                     {"materials", c.materials}, {"textures", c.textures}, {"images", c.images},
+                     {"cameras", c.cameras}, {"lights", c.lights}, {"skins", c.skins},
+                     {"animations", c.animations}, {"vertices", c.vertices},
+                     {"instances", scene.primitives.size()}, {"triangles", triangles},
+                     {"extensionsUsed", scene.extensionsUsed}, {"warnings", scene.warnings}};
+    nlohmann::json mats = nlohmann::json::array();
+    for (const Material& m : scene.materials)
+      mats.push_back({{"name", m.name}, {"index", m.gltfIndex}, {"reflectance", vec3Json(m.reflectance)},
+                      {"emission", vec3Json(m.emission)}, {"doubleSided", m.doubleSided}});
+    j["materialSummary"] = mats;
+    out << j.dump(2) << "\n";
+    return;
+  }
+  out << scene.path << "\n"
+      << "  scenes " << c.scenes << ", nodes " << c.nodes << ", meshes " << c.meshes << ", primitives "
+      << c.primitives << ", materials " << c.materials << ", textures " << c.textures << ", images " << c.images
+      << "\n  cameras " << c.cameras << ", lights " << c.lights << ", skins " << c.skins << ", animations "
+      << c.animations << ", vertices " << c.vertices << "\n"
+      << "  baked surfaces: " << scene.primitives.size() << " primitive instances, " << triangles << " triangles\n";
+  if (!scene.extensionsUsed.empty()) {
+    out << "  extensions:";
+    for (const auto& e : scene.extensionsUsed) out << " " << e;
+    out << "\n";
+  }
+  for (const Material& m : scene.materials) {
+    bool used = false;
+    for (const Primitive& p : scene.primitives) used |= &scene.materials[p.material] == &m;
+    if (m.gltfIndex < 0 && !used) continue;
+    out << "  material " << (m.gltfIndex < 0 ? std::string("(default)") : std::to_string(m.gltfIndex)) << " \""
+        << m.name << "\": reflectance (" << m.reflectance.x << ", " << m.reflectance.y << ", " << m.reflectance.z
+        << ")";
+    if (m.emission.x > 0 || m.emission.y > 0 || m.emission.z > 0)
+      out << ", emits (" << m.emission.x << ", " << m.emission.y << ", " << m.emission.z << ")";
+    if (m.doubleSided) out << ", double-sided";
+    out << "\n";
+  }
+  if (!scene.hasEmitter()) out << "  no emitter: the bake will be black\n";
+  for (const auto& w : scene.warnings) out << "  warning: " << w << "\n";
+}
+
+int bake(const Options& options, std::ostream& out, std::ostream& err) {
+  using Clock = std::chrono::steady_clock;
+  auto seconds = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
+  if (std::string unbuilt = unbuiltOption(options); !unbuilt.empty())
+    throw Error(ExitCode::kUnsupported, "radbake: " + unbuilt);
+  const std::string outExt = lowerExtension(options.output);
+  if (outExt != ".glb" && outExt != ".gltf")
+    throw Error(ExitCode::kUsage, "radbake: output " + options.output + " must end in .glb or .gltf");
+  if (!options.report.empty() && lowerExtension(options.report) != ".json")
+    throw Error(ExitCode::kUsage, "radbake: --report " + options.report + " must end in .json");
+  checkInputKind(options.input);
+
+  std::optional<tbb::global_control> threads;
+  if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, options.threads);
+  Progress progress(options.quiet ? ProgressStyle::kNone : options.progress, err);
+
+  const auto t0 = Clock::now();
+  progress.stage("import");
+  Scene scene = importScene(options.input);
+  if (!scene.hasEmitter())
+    scene.warnings.push_back(std::filesystem::path(options.input).filename().string() +
+                             ": no emitter (no emissive material): the bake is black");
+  const auto t1 = Clock::now();
+  progress.stage("tessellate");
+  TessellateOptions tessellateOptions;
+  tessellateOptions.subdivide = options.subdivide;
+  tessellateOptions.maxEdgeLength = options.maxEdge;
+  const PatchMesh mesh = tessellate(scene, tessellateOptions);
+  const auto t2 = Clock::now();
+  progress.stage("solve");
+  RadiosityOptions radiosityOptions;
+  radiosityOptions.relativeResidual = options.tolerance;
+  radiosityOptions.progress = [&](double f) { progress.report(f); };
+  const Solution solution = solveRadiosity(scene, mesh, radiosityOptions);
+  const auto t3 = Clock::now();
+  progress.stage("export");
+  const ExportSummary summary = writeGltf(options.output, scene, mesh, solution.vertexRadiance);
+  const auto t4 = Clock::now();
+  progress.finishBar();
+
+  if (!options.quiet)
+    for (const auto& w : scene.warnings) err << "warning: " << w << "\n";
+  if (!options.report.empty()) {
+    nlohmann::json report{
+        {"input", options.input}, {"output", options.output}, {"method", options.method},
+        {"subdivide", options.subdivide}, {"maxEdge", options.maxEdge},
+        {"counts", {{"primitiveInstances", scene.primitives.size()}, {"patches", mesh.patches.size()},
+                    {"vertices", mesh.positions.size()}, {"writtenVertices", summary.writtenVertices},
+                    {"clonedMeshes", summary.clonedMeshes}}},
+        {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
+                    {"relativeResidual", solution.residual}, {"tolerance", options.tolerance}}},
+        {"timings", {{"import", seconds(t0, t1)}, {"tessellate", seconds(t1, t2)}, {"solve", seconds(t2, t3)},
+                     {"export", seconds(t3, t4)}, {"total", seconds(t0, t4)}}},
+        {"warnings", scene.warnings}};
+    writeFileAtomically(options.report, report.dump(2) + "\n");
+  }
+  if (!options.quiet)
+    out << "radbake: wrote " << options.output << " (" << mesh.patches.size() << " patches, "
+        << mesh.positions.size() << " vertices, " << std::fixed << std::setprecision(2) << seconds(t0, t4)
+        << " s)\n";
+  return 0;
+}
+
+}  // namespace
+
+ParseResult parseCommandLine(const std::vector<std::string>& args) {
+  Options o;
+  CLI::App app{"radbake: bake diffuse global illumination (bilinear vertex radiosity) into glTF assets", "radbake"};
+  app.footer(kExitCodes);
+  app.require_subcommand(0, 1);
+  bool version = false;
+  app.add_flag("--version", version, "print the version and exit");
+
+  CLI::App* bakeCmd = app.add_subcommand("bake", "solve the lighting of INPUT and write it into OUTPUT");
+  bakeCmd->add_option("input", o.input, "input scene (.gltf, .glb)")->required();
+  bakeCmd->add_option("-o,--output", o.output, "output file (.glb or .gltf)")->required();
+  bakeCmd->add_option("--method", o.method, "bilinear (default): vertex radiosity; constant: classic constant patches")
+      ->check(CLI::IsMember({"bilinear", "constant"}));
+  bakeCmd->add_option("--subdivide", o.subdivide, "split every input face into N×N patches (default 1)")
+      ->check(CLI::Range(1, 4096));
+  bakeCmd->add_option("--max-edge", o.maxEdge, "refine until no patch edge is longer than LENGTH (scene units)")
+      ->check(CLI::PositiveNumber);
+  bakeCmd->add_option("--lightmap", o.lightmap, "also write an HDR lightmap atlas (.exr)");
+  bakeCmd->add_option("--exposure", o.exposure, "exposure in EV for COLOR_0 and previews");
+  bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0");
+  bakeCmd->add_option("--display", o.display, "OCIO display for COLOR_0");
+  bakeCmd->add_option("--ocio-config", o.ocioConfig, "OCIO config file (default: $OCIO, else built in)");
+  bakeCmd->add_option("--probe", o.probe, "CSV of surface points x,y,z,nx,ny,nz to evaluate");
+  bakeCmd->add_option("--probe-out", o.probeOut, "CSV written with x,y,z,r,g,b for each probe");
+  bakeCmd->add_option("--report", o.report, "write a JSON summary: counts, timings, residual, warnings");
+  bakeCmd->add_option("--sky", o.sky, "uniform sky radiance R,G,B for open scenes");
+  bakeCmd->add_option("--tolerance", o.tolerance, "relative residual at which the solver stops (default 1e-6)")
+      ->check(CLI::Range(1e-15, 1.0));
+  bakeCmd->add_option("--threads", o.threads, "worker threads (default: all cores)")->check(CLI::Range(1, 1024));
+  bakeCmd->add_flag("-q,--quiet", o.quiet, "print errors only");
+  std::string progress = "auto";
+  bakeCmd->add_option("--progress", progress, "bar, json (lines on stderr), none; default: a bar on a terminal")
+      ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
+
+  CLI::App* infoCmd = app.add_subcommand("info", "print what the importer sees in INPUT");
+  infoCmd->add_option("input", o.input, "input scene (.gltf, .glb)")->required();
+  infoCmd->add_flag("--json", o.json, "machine-readable output");
+
+  std::vector<std::string> reversed(args.rbegin(), args.rend());
+  try {
+    app.parse(reversed);
+  } catch (const CLI::CallForHelp&) {
+    std::ostringstream help;
+    help << app.help();
+    return {std::nullopt, 0, help.str()};
+  } catch (const CLI::ParseError& e) {
+    return {std::nullopt, int(ExitCode::kUsage), std::string("radbake: ") + e.what() + " (see radbake --help)"};
+  }
+  if (version) {
+    o.command = Command::kVersion;
+  } else if (bakeCmd->parsed()) {
+    o.command = Command::kBake;
+    o.progress = progress == "json"  ? ProgressStyle::kJson
+                 : progress == "none" ? ProgressStyle::kNone
+                 : progress == "bar"  ? ProgressStyle::kBar
+                                      : ProgressStyle::kAuto;
+  } else if (infoCmd->parsed()) {
+    o.command = Command::kInfo;
+  } else {
+    std::ostringstream help;
+    help << app.help();
+    return {std::nullopt, int(ExitCode::kUsage), help.str()};
+  }
+  return {o, 0, ""};
+}
+
+int run(const Options& options, std::ostream& out, std::ostream& err) {
+  try {
+    switch (options.command) {
+      case Command::kVersion:
+        out << "radbake " << RADBAKE_VERSION << "\n";
+        return 0;
+      case Command::kInfo: {
+        checkInputKind(options.input);
+        ImportOptions importOptions;
+        importOptions.requireSupportedExtensions = false;
+        printInfo(importScene(options.input, importOptions), options, out);
+        return 0;
+      }
+      case Command::kBake:
+        return bake(options, out, err);
+      case Command::kNone:
+        break;
+    }
+    return int(ExitCode::kUsage);
+  } catch (const Error& e) {
+    err << "error: " << e.what() << "\n";
+    return int(e.code());
+  } catch (const std::bad_alloc&) {
+    err << "error: " << options.input << ": out of memory\n";
+    return int(ExitCode::kUnsupported);
+  } catch (const std::exception& e) {
+    // A library threw something we did not map: still one line, never a crash.
+    err << "error: " << options.input << ": " << e.what() << "\n";
+    return int(ExitCode::kInvalidInput);
+  }
+}
+
+int runCommandLine(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  ParseResult parsed = parseCommandLine(args);
+  if (!parsed.options) {
+    (parsed.exitCode == 0 ? out : err) << parsed.message << (parsed.message.ends_with("\n") ? "" : "\n");
+    return parsed.exitCode;
+  }
+  return run(*parsed.options, out, err);
+}
+
+}  // namespace radbake

@@ -1,0 +1,49 @@
+// The radbake command: parse the command line into Options, run the four stages, map failures to
+// exit codes (DESIGN.md). main.cpp only forwards argv here, so all of it is testable in-process.
+#pragma once
+
+#include <iosfwd>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace radbake {
+
+enum class Command { kNone, kBake, kInfo, kVersion };
+enum class ProgressStyle { kAuto, kBar, kJson, kNone };  // auto: a bar when stderr is a terminal
+
+struct Options {
+  Command command = Command::kNone;
+  std::string input;
+  std::string output;
+  std::string method = "bilinear";
+  int subdivide = 1;
+  double maxEdge = 0;
+  std::string lightmap;
+  std::optional<double> exposure;
+  std::string view, display, ocioConfig;
+  std::string probe, probeOut;
+  std::string report;
+  std::optional<std::string> sky;
+  double tolerance = 1e-6;
+  int threads = 0;  // 0: all cores
+  bool quiet = false;
+  bool json = false;  // `info --json`
+  ProgressStyle progress = ProgressStyle::kAuto;
+};
+
+struct ParseResult {
+  std::optional<Options> options;  // empty: exit with `exitCode` after printing `message`
+  int exitCode = 0;
+  std::string message;
+};
+
+ParseResult parseCommandLine(const std::vector<std::string>& args);
+
+// Runs a parsed command. Messages go to `err`, results (info, summaries) to `out`.
+int run(const Options& options, std::ostream& out, std::ostream& err);
+
+// parse + run, what main() calls.
+int runCommandLine(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace radbake

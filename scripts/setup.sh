@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs what radbake needs to build and test, from Debian packages (apt-get) and npm (the glTF
+# validator). Idempotent and quick when everything is present. Run as root or with sudo available.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(cmake ninja-build g++ pkg-config
+  libtinygltf-dev libosd-dev libeigen3-dev libopenexr-dev libimath-dev libopencolorio-dev
+  libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev)
+command -v node >/dev/null 2>&1 || packages+=(nodejs)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}"
+  sudo_cmd=""
+  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# JavaScript test tools, pinned by tools/package-lock.json.
+if [ ! -d tools/node_modules/gltf-validator ]; then
+  echo "setup: installing the glTF validator (npm)"
+  (cd tools && npm ci --no-audit --no-fund --loglevel=error)
+fi

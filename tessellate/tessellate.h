@@ -1,0 +1,57 @@
+// tessellate: Scene → PatchMesh, the planar quad patches the solver works on.
+//
+// A triangle is a quad whose last two vertices coincide (paper §2). Each face may be split into N×N
+// patches. Vertices are welded where they coincide within one smooth surface and one material (same
+// position, normal and material), so a K×K grid has (K+1)² unknowns, and never across a crease or a
+// material boundary. Every patch vertex keeps a link to where it lies on the source primitive, so
+// the exporter can carry the original attributes onto the new vertices.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "importers/importers.h"
+
+namespace radbake {
+
+struct Patch {
+  std::array<uint32_t, 4> v;  // counter-clockwise seen from the front; v[2] == v[3] for a triangle
+  int material = 0;           // index into Scene::materials
+  int primitive = 0;          // index into Scene::primitives
+  Vec3 normal;                // unit geometric normal (front side)
+  double area = 0;
+};
+
+// Where an output vertex lies on its source primitive: a triangle and barycentric weights.
+struct SurfacePoint {
+  uint32_t triangle = 0;  // index into Primitive::triangles
+  double w1 = 0, w2 = 0;  // weights of the triangle's 2nd and 3rd vertex (the 1st gets 1 − w1 − w2)
+};
+
+// The tessellated geometry of one scene primitive, as the exporter writes it.
+struct PrimitivePatches {
+  // true: the output vertices are the glTF vertices themselves (no splitting happened), so the
+  // bake is written onto the original primitive and its data stays bit-exact.
+  bool keepsSourceVertices = true;
+  std::vector<uint32_t> patchVertex;             // patch-mesh vertex of each output vertex (UINT32_MAX: unused)
+  std::vector<SurfacePoint> source;              // where each output vertex lies (when !keepsSourceVertices)
+  std::vector<std::array<uint32_t, 3>> triangles;  // output triangles (when !keepsSourceVertices)
+};
+
+struct PatchMesh {
+  std::vector<Vec3> positions;  // welded patch vertices
+  std::vector<Vec3> normals;    // unit, the receiving orientation of each vertex
+  std::vector<int> vertexMaterial;
+  std::vector<Patch> patches;
+  std::vector<PrimitivePatches> primitives;  // parallel to Scene::primitives
+};
+
+struct TessellateOptions {
+  int subdivide = 1;         // split every face into subdivide × subdivide patches
+  double maxEdgeLength = 0;  // > 0: per primitive, the smallest subdivision with every patch edge ≤ this
+};
+
+PatchMesh tessellate(const Scene& scene, const TessellateOptions& options = {});
+
+}  // namespace radbake

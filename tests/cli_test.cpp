@@ -1,0 +1,479 @@
+// End-to-end tests of the radbake command on real files: round trips of every scene and sample
+// asset (checked against the input document and the Khronos validator), every broken asset (exit
+// code, one-line message naming the file and element, no output), and `radbake info` against the
+// asset index.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "plugin/cli/cli.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const fs::path kShared = RADBAKE_SHARED_DIR;
+
+struct RunResult {
+  int code;
+  std::string out, err;
+};
+
+RunResult radbake(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = radbake::runCommandLine(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+fs::path tempDir() {
+  fs::path dir = fs::temp_directory_path() / ("radbake_cli_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+bool loadModel(const fs::path& path, tinygltf::Model* model) {
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader([](tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                           const unsigned char* bytes, int size, void*) {
+    image->image.assign(bytes, bytes + size);
+    return true;
+  }, nullptr);
+  std::string err, warn;
+  return path.extension() == ".glb" ? loader.LoadBinaryFromFile(model, &err, &warn, path.string())
+                                    : loader.LoadASCIIFromFile(model, &err, &warn, path.string());
+}
+
+// The raw bytes of every element of an accessor (stride removed): "bit-exact" means these match.
+std::string accessorBytes(const tinygltf::Model& m, int index) {
+  const auto& acc = m.accessors[index];
+  if (acc.bufferView < 0) return "";
+  const auto& view = m.bufferViews[acc.bufferView];
+  const size_t size = tinygltf::GetComponentSizeInBytes(acc.componentType) * tinygltf::GetNumComponentsInType(acc.type);
+  const size_t stride = view.byteStride ? view.byteStride : size;
+  std::string out;
+  const unsigned char* base = m.buffers[view.buffer].data.data() + view.byteOffset + acc.byteOffset;
+  for (size_t i = 0; i < acc.count; ++i) out.append(reinterpret_cast<const char*>(base + i * stride), size);
+  return out;
+}
+
+std::string extrasOf(const tinygltf::Value& v) {
+  // Serialize a Value through tinygltf's own JSON form for comparison.
+  tinygltf::Model m;
+  m.asset.version = "2.0";
+  m.asset.extras = v;
+  std::ostringstream s;
+  tinygltf::TinyGLTF().WriteGltfSceneToStream(&m, s, false, false);
+  return s.str();
+}
+
+std::vector<fs::path> filesIn(const fs::path& dir, bool nested) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (nested && entry.is_directory()) {
+      for (const auto& inner : fs::directory_iterator(entry.path()))
+        if (inner.path().extension() == ".gltf" || inner.path().extension() == ".glb") files.push_back(inner.path());
+    } else if (entry.path().extension() == ".gltf" || entry.path().extension() == ".glb") {
+      files.push_back(entry.path());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+int runValidator(const std::vector<fs::path>& files, std::string* log) {
+  const fs::path tools = RADBAKE_TOOLS_DIR;
+  std::string cmd = "node " + (tools / "validate.js").string();
+  for (const auto& f : files) cmd += " '" + f.string() + "'";
+  cmd += " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return -1;
+  char buffer[4096];
+  while (fgets(buffer, sizeof buffer, pipe)) *log += buffer;
+  const int status = pclose(pipe);
+  return WEXITSTATUS(status);
+}
+
+bool validatorAvailable() { return fs::exists(fs::path(RADBAKE_TOOLS_DIR) / "node_modules" / "gltf-validator"); }
+
+// Round trip: bake each file with the emission-only stage and compare the output with the input.
+void checkRoundTrip(const fs::path& input, const fs::path& output, int* retessellated) {
+  SCOPED_TRACE(input.string());
+  const RunResult r = radbake({"bake", input.string(), "-o", output.string(), "--progress", "none", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  tinygltf::Model in, out;
+  ASSERT_TRUE(loadModel(input, &in));
+  ASSERT_TRUE(loadModel(output, &out));
+
+  EXPECT_EQ(out.nodes.size(), in.nodes.size());
+  EXPECT_EQ(out.materials.size(), in.materials.size());
+  EXPECT_EQ(out.textures.size(), in.textures.size());
+  EXPECT_EQ(out.images.size(), in.images.size());
+  EXPECT_EQ(out.scenes.size(), in.scenes.size());
+  EXPECT_EQ(out.animations.size(), in.animations.size());
+  EXPECT_EQ(out.skins.size(), in.skins.size());
+  EXPECT_EQ(out.cameras.size(), in.cameras.size());
+  EXPECT_EQ(out.extensionsUsed, in.extensionsUsed);
+  EXPECT_EQ(extrasOf(out.asset.extras), extrasOf(in.asset.extras));
+  // Meshes: the originals in order (instances beyond the first get appended copies).
+  ASSERT_GE(out.meshes.size(), in.meshes.size());
+  for (size_t i = 0; i < in.meshes.size(); ++i) {
+    EXPECT_EQ(out.meshes[i].name, in.meshes[i].name);
+    EXPECT_EQ(extrasOf(out.meshes[i].extras), extrasOf(in.meshes[i].extras));
+    ASSERT_EQ(out.meshes[i].primitives.size(), in.meshes[i].primitives.size());
+    for (size_t p = 0; p < in.meshes[i].primitives.size(); ++p) {
+      const auto& pi = in.meshes[i].primitives[p];
+      const auto& po = out.meshes[i].primitives[p];
+      EXPECT_EQ(po.material, pi.material);
+      // The bake keeps the glTF vertices (and so their accessors) unless a vertex had to split:
+      // a flat-shaded vertex shared by non-coplanar faces. Then every attribute is re-sampled.
+      if (po.attributes.at("POSITION") != pi.attributes.at("POSITION")) {
+        ++*retessellated;
+        continue;
+      }
+      for (const auto& [semantic, accessor] : pi.attributes) {
+        if (semantic.rfind("COLOR_", 0) == 0) continue;  // shifted up by one to make room for the bake
+        ASSERT_TRUE(po.attributes.count(semantic)) << semantic;
+        EXPECT_EQ(accessorBytes(out, po.attributes.at(semantic)), accessorBytes(in, accessor))
+            << "mesh " << i << " primitive " << p << " " << semantic;
+      }
+      if (pi.indices >= 0) {
+        EXPECT_EQ(accessorBytes(out, po.indices), accessorBytes(in, pi.indices));
+      }
+    }
+  }
+  for (size_t i = 0; i < in.nodes.size(); ++i) {
+    EXPECT_EQ(out.nodes[i].name, in.nodes[i].name);
+    EXPECT_EQ(out.nodes[i].children, in.nodes[i].children);
+    EXPECT_EQ(out.nodes[i].matrix, in.nodes[i].matrix);
+    EXPECT_EQ(out.nodes[i].translation, in.nodes[i].translation);
+    EXPECT_EQ(out.nodes[i].rotation, in.nodes[i].rotation);
+    EXPECT_EQ(out.nodes[i].scale, in.nodes[i].scale);
+    EXPECT_EQ(extrasOf(out.nodes[i].extras), extrasOf(in.nodes[i].extras));
+    if (in.nodes[i].mesh >= 0) {
+      EXPECT_EQ(out.meshes[out.nodes[i].mesh].primitives.size(), in.meshes[in.nodes[i].mesh].primitives.size());
+    }
+  }
+  for (size_t i = 0; i < in.materials.size(); ++i) {
+    EXPECT_EQ(out.materials[i].name, in.materials[i].name);
+    EXPECT_EQ(out.materials[i].emissiveFactor, in.materials[i].emissiveFactor);
+    EXPECT_EQ(out.materials[i].pbrMetallicRoughness.baseColorFactor, in.materials[i].pbrMetallicRoughness.baseColorFactor);
+    EXPECT_EQ(out.materials[i].extensions.size(), in.materials[i].extensions.size());
+  }
+  for (size_t i = 0; i < in.images.size(); ++i) EXPECT_EQ(out.images[i].image, in.images[i].image) << "image " << i;
+}
+
+class RoundTrip : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RoundTrip, KeepsTheDocumentAndValidates) {
+  const fs::path input = GetParam();
+  const fs::path dir = tempDir();
+  const fs::path glb = dir / (input.stem().string() + "_" + input.parent_path().filename().string() + ".glb");
+  const fs::path gltf = dir / (input.stem().string() + "_" + input.parent_path().filename().string() + ".gltf");
+  int retessellated = 0;
+  checkRoundTrip(input, glb, &retessellated);
+  checkRoundTrip(input, gltf, &retessellated);
+  // Only the flat-shaded non-planar quad has vertices that must split.
+  EXPECT_EQ(retessellated, input.filename() == "one_quad_nonplanar.gltf" ? 2 : 0);
+  if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed (scripts/setup.sh installs it)";
+  std::string log;
+  EXPECT_EQ(runValidator({glb, gltf}, &log), 0) << log;
+  EXPECT_NE(log.find(" 0 errors"), std::string::npos) << log;
+}
+
+std::vector<std::string> roundTripInputs() {
+  std::vector<std::string> out;
+  for (const auto& f : filesIn(kShared / "scenes", false)) out.push_back(f.string());
+  for (const auto& f : filesIn(kShared / "assets" / "valid", true))
+    if (f.string().find("draco") == std::string::npos) out.push_back(f.string());
+  return out;
+}
+
+std::string testName(const ::testing::TestParamInfo<std::string>& info) {
+  std::string name = fs::path(info.param).parent_path().filename().string() + "_" + fs::path(info.param).stem().string();
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(ScenesAndAssets, RoundTrip, ::testing::ValuesIn(roundTripInputs()), testName);
+
+TEST(RoundTrip, InstancedMeshGetsOneBakePerNode) {
+  // nested_nodes.gltf: one mesh placed by six nodes.
+  const fs::path out = tempDir() / "nested.glb";
+  ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "nested_nodes.gltf").string(), "-o", out.string(), "-q"}).code, 0);
+  tinygltf::Model in, m;
+  ASSERT_TRUE(loadModel(kShared / "scenes" / "nested_nodes.gltf", &in));
+  ASSERT_TRUE(loadModel(out, &m));
+  EXPECT_EQ(in.meshes.size(), 1u);
+  EXPECT_EQ(m.meshes.size(), 6u);
+  std::set<int> meshes;
+  for (const auto& node : m.nodes)
+    if (node.mesh >= 0) meshes.insert(node.mesh);
+  EXPECT_EQ(meshes.size(), 6u);
+}
+
+TEST(Bake, RadianceIsTheEmissionUntilTheSolverLands) {
+  const fs::path out = tempDir() / "cornell_emission.glb";
+  ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(), "-q"}).code, 0);
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  int lightPrimitives = 0;
+  for (const auto& mesh : m.meshes)
+    for (const auto& prim : mesh.primitives) {
+      ASSERT_TRUE(prim.attributes.count("_RADIANCE"));
+      ASSERT_TRUE(prim.attributes.count("COLOR_0"));
+      const auto& mat = m.materials[prim.material];
+      double strength = 1;
+      if (mat.extensions.count("KHR_materials_emissive_strength"))
+        strength = mat.extensions.at("KHR_materials_emissive_strength").Get("emissiveStrength").GetNumberAsDouble();
+      const std::string bytes = accessorBytes(m, prim.attributes.at("_RADIANCE"));
+      const float* L = reinterpret_cast<const float*>(bytes.data());
+      for (size_t i = 0; i < bytes.size() / 12; ++i)
+        for (int c = 0; c < 3; ++c) EXPECT_EQ(L[3 * i + c], float(mat.emissiveFactor[c] * strength));
+      lightPrimitives += mat.emissiveFactor[0] > 0;
+    }
+  EXPECT_EQ(lightPrimitives, 1);
+}
+
+TEST(Bake, SubdivisionWritesNewGeometryThatValidates) {
+  const fs::path out = tempDir() / "cornell_n4.glb";
+  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+                               "--subdivide", "4", "-q", "--report", (tempDir() / "n4.json").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream reportFile(tempDir() / "n4.json");
+  const json report = json::parse(reportFile);
+  // 46 input triangles pair into 23 quads (every Cornell face is a convex planar quad, except
+  // the red wall, 3.2 mm out of plane, which stays two triangles) → × 16 sub-patches.
+  EXPECT_EQ(report["counts"]["patches"].get<int>(), 24 * 16);
+  if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed";
+  std::string log;
+  EXPECT_EQ(runValidator({out}, &log), 0) << log;
+}
+
+// Broken on purpose: exit 2, one line naming the file and the element, nothing written.
+struct Broken {
+  const char* file;
+  const char* expect;  // a part of the message that names the broken element
+};
+
+class InvalidAsset : public ::testing::TestWithParam<Broken> {};
+
+TEST_P(InvalidAsset, FailsCleanlyNamingTheElement) {
+  const fs::path input = kShared / "assets" / "invalid" / GetParam().file;
+  const fs::path out = tempDir() / (input.stem().string() + "_invalid.glb");
+  fs::remove(out);
+  const RunResult r = radbake({"bake", input.string(), "-o", out.string(), "--progress", "none"});
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find("error: " + input.filename().string() + ": "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(GetParam().expect), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  for (const auto& entry : fs::directory_iterator(out.parent_path()))
+    EXPECT_EQ(entry.path().string().find(".radbake-"), std::string::npos) << "temporary left behind";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Assets, InvalidAsset,
+    ::testing::Values(Broken{"AllIndicesOutOfRange/AllIndicesOutOfRange.gltf", "indices accessor 0 element 0 is 65535"},
+                      Broken{"BoxWithInfinites/BoxWithInfinites.glb", "POSITION accessor 2 element 0 is not finite"},
+                      Broken{"IncorrectVertexArrays/Cube.gltf", "buffer view 2: bytes 504..936 exceed buffer 0"},
+                      Broken{"IndexOutOfRange/IndexOutOfRange.gltf", "indices accessor 0 element 0 is 255"},
+                      Broken{"MissingBin/BoxTextured.gltf", "BoxTextured0.bin"},
+                      Broken{"NoScene/NoScene.gltf", "scene 0 does not exist"},
+                      Broken{"RecursiveNodes/RecursiveNodes.gltf", "node cycle"},
+                      Broken{"SceneWrongType/sceneWrongType.gltf", "/scene: expected a non-negative integer"},
+                      Broken{"TexcoordCrash/texcoord_crash.gltf", "needs TEXCOORD_0"},
+                      Broken{"WrongTypes-array/badArray.gltf", "/meshes/0/primitives: expected an array"},
+                      Broken{"WrongTypes-extension/badExtension.gltf", "KHR_texture_transform: expected an object"},
+                      Broken{"WrongTypes-number/badNumber.gltf", "/materials/0/normalTexture/scale: expected a number"},
+                      Broken{"WrongTypes-object/badObject.gltf", "/materials/0/pbrMetallicRoughness: expected an object"},
+                      Broken{"WrongTypes-string/badString.gltf", "/scenes/0/name: expected a string"},
+                      Broken{"WrongTypes-uint/badUint.gltf", "baseColorTexture/index: expected a non-negative integer"}),
+    [](const ::testing::TestParamInfo<Broken>& info) {
+      std::string name = fs::path(info.param.file).parent_path().string();
+      for (char& c : name)
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      return name;
+    });
+
+TEST(InvalidAsset, EveryInvalidAssetIsCovered) {
+  // A new file in invalid/ must get a case above.
+  EXPECT_EQ(filesIn(kShared / "assets" / "invalid", true).size(), 16u);
+}
+
+TEST(InvalidAsset, BadNormalsAreRepairedWithAWarning) {
+  const fs::path input = kShared / "assets" / "invalid" / "BoxBadNormals" / "BoxBadNormals.glb";
+  const fs::path out = tempDir() / "badnormals.glb";
+  const RunResult r = radbake({"bake", input.string(), "-o", out.string(), "--progress", "none"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: BoxBadNormals.glb: mesh 0 primitive 0: NORMAL accessor 1 has non-unit"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out));
+}
+
+TEST(BadInput, MissingFile) {
+  const RunResult r = radbake({"bake", "/nonexistent/scene.gltf", "-o", (tempDir() / "x.glb").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "error: scene.gltf: cannot open: no such file\n");
+}
+
+TEST(BadInput, NotGltf) {
+  const fs::path bad = tempDir() / "notes.gltf";
+  std::ofstream(bad) << "hello, this is text";
+  const RunResult r = radbake({"bake", bad.string(), "-o", (tempDir() / "x.glb").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "error: notes.gltf: not a glTF file (neither GLB nor JSON)\n");
+}
+
+TEST(BadInput, TruncatedGlb) {
+  const fs::path source = kShared / "assets" / "valid" / "BoxTextured-glb" / "BoxTextured.glb";
+  std::ifstream in(source, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  const fs::path cut = tempDir() / "cut.glb";
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  const fs::path out = tempDir() / "cut_out.glb";
+  const RunResult r = radbake({"bake", cut.string(), "-o", out.string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "error: cut.glb: truncated GLB: header says " + std::to_string(bytes.size()) + " bytes, file has " +
+                       std::to_string(bytes.size() / 2) + "\n");
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// A one-triangle glTF built in the test, to break in specific ways.
+std::string triangleGltf(const std::string& positionsBase64, int count, const std::string& emission = "1,1,1") {
+  return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]}],
+    "materials":[{"emissiveFactor":[)" + emission + R"(]}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":)" + std::to_string(count) + R"(,"type":"VEC3"}],
+    "bufferViews":[{"buffer":0,"byteLength":36}],
+    "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,)" + positionsBase64 + R"("}]})";
+}
+
+std::string base64(const std::vector<float>& values) {
+  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  const auto* b = reinterpret_cast<const unsigned char*>(values.data());
+  const size_t n = values.size() * 4;
+  std::string out;
+  for (size_t i = 0; i < n; i += 3) {
+    const uint32_t v = b[i] << 16 | (i + 1 < n ? b[i + 1] << 8 : 0) | (i + 2 < n ? b[i + 2] : 0);
+    out += kAlphabet[v >> 18 & 63];
+    out += kAlphabet[v >> 12 & 63];
+    out += i + 1 < n ? kAlphabet[v >> 6 & 63] : '=';
+    out += i + 2 < n ? kAlphabet[v & 63] : '=';
+  }
+  return out;
+}
+
+TEST(BadInput, AccessorOutOfRange) {
+  const fs::path f = tempDir() / "long.gltf";
+  std::ofstream(f) << triangleGltf(base64({0, 0, 0, 1, 0, 0, 0, 1, 0}), 4);
+  const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "long.glb").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "error: long.gltf: mesh 0 primitive 0 POSITION: accessor 0: count 4 exceeds buffer view 0 length 36\n");
+}
+
+TEST(BadInput, NaNPosition) {
+  const fs::path f = tempDir() / "nan.gltf";
+  std::ofstream(f) << triangleGltf(base64({0, 0, 0, std::nanf(""), 0, 0, 0, 1, 0}), 3);
+  const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "nan.glb").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "error: nan.gltf: mesh 0 primitive 0: POSITION accessor 0 element 1 is not finite (nan)\n");
+  EXPECT_FALSE(fs::exists(tempDir() / "nan.glb"));
+}
+
+TEST(BadInput, ZeroAreaFacesAreDroppedWithAWarning) {
+  const fs::path f = tempDir() / "flat.gltf";
+  std::ofstream(f) << triangleGltf(base64({0, 0, 0, 1, 0, 0, 2, 0, 0}), 3);
+  const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "flat.glb").string(), "--progress", "none"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: flat.gltf: mesh 0 primitive 0: 1 zero-area triangle dropped"), std::string::npos) << r.err;
+}
+
+TEST(BadInput, NoEmitterIsAWarning) {
+  const fs::path f = tempDir() / "dark.gltf";
+  std::ofstream(f) << triangleGltf(base64({0, 0, 0, 1, 0, 0, 0, 1, 0}), 3, "0,0,0");
+  const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "dark.glb").string(), "--progress", "none"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: dark.gltf: no emitter"), std::string::npos) << r.err;
+}
+
+TEST(BadInput, UnwritableOutputIsExit4) {
+  const RunResult r = radbake({"bake", (kShared / "scenes" / "furnace_cube.gltf").string(), "-o",
+                               "/nonexistent-dir/out.glb", "--progress", "none"});
+  EXPECT_EQ(r.code, 4);
+  EXPECT_NE(r.err.find("/nonexistent-dir/out.glb: cannot write"), std::string::npos) << r.err;
+}
+
+TEST(Cli, UsageErrorsAreExit1) {
+  EXPECT_EQ(radbake({"bake"}).code, 1);
+  EXPECT_EQ(radbake({"bake", "a.gltf", "-o", "b.glb", "--method", "pathtrace"}).code, 1);
+  EXPECT_EQ(radbake({"bake", "a.gltf", "-o", "b.obj"}).code, 1);
+  EXPECT_EQ(radbake({"frobnicate"}).code, 1);
+}
+
+TEST(Cli, UnbuiltOptionsAreExit3AndSaySo) {
+  const std::string in = (kShared / "scenes" / "furnace_cube.gltf").string();
+  const std::string out = (tempDir() / "unbuilt.glb").string();
+  for (const std::vector<std::string>& extra :
+       {std::vector<std::string>{"--lightmap", "x.exr"}, {"--exposure", "1"}, {"--ocio-config", "c.ocio"}, {"--sky", "1,1,1"}}) {
+    std::vector<std::string> args{"bake", in, "-o", out};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const RunResult r = radbake(args);
+    EXPECT_EQ(r.code, 3) << extra[0];
+    EXPECT_NE(r.err.find("not built yet"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+TEST(Cli, VersionAndHelp) {
+  EXPECT_EQ(radbake({"--version"}).out.rfind("radbake ", 0), 0u);
+  const RunResult help = radbake({"--help"});
+  EXPECT_EQ(help.code, 0);
+  EXPECT_NE(help.out.find("exit codes"), std::string::npos);
+}
+
+TEST(Cli, DracoIsAClearExit3) {
+  const std::string in = (kShared / "assets" / "valid" / "2CylinderEngine-draco" / "2CylinderEngine.gltf").string();
+  const RunResult r = radbake({"bake", in, "-o", (tempDir() / "draco.glb").string(), "--progress", "none"});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_EQ(r.err, "error: 2CylinderEngine.gltf: requires extension KHR_draco_mesh_compression, which radbake does not support\n");
+}
+
+TEST(Info, CountsMatchTheAssetIndex) {
+  std::ifstream indexFile(kShared / "assets" / "index.json");
+  const json index = json::parse(indexFile);
+  int checked = 0;
+  for (const auto& entry : index["valid"]) {
+    const fs::path file = kShared / "assets" / "valid" / entry["file"].get<std::string>();
+    SCOPED_TRACE(file.string());
+    const RunResult r = radbake({"info", file.string(), "--json"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    const json info = json::parse(r.out);
+    for (const char* key : {"scenes", "nodes", "meshes", "primitives", "materials", "textures", "images", "vertices"})
+      EXPECT_EQ(info[key].get<long long>(), entry[key].get<long long>()) << key;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 29);
+}
+
+TEST(Info, TextSummaryNamesMaterialsAndEmitters) {
+  const RunResult r = radbake({"info", (kShared / "scenes" / "cornell_box.gltf").string()});
+  ASSERT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("emits (17, 12, 4)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("reflectance (0.63, 0.065, 0.05)"), std::string::npos) << r.out;
+}
+
+TEST(Progress, JsonLinesNameEachStage) {
+  const RunResult r = radbake({"bake", (kShared / "scenes" / "furnace_cube.gltf").string(), "-o",
+                               (tempDir() / "progress.glb").string(), "--progress", "json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* stage : {"import", "tessellate", "solve", "export"})
+    EXPECT_NE(r.err.find(std::string("{\"progress\":0.0,\"stage\":\"") + stage + "\"}"), std::string::npos) << r.err;
+}
+
+}  // namespace
