@@ -1,18 +1,343 @@
 #include "radiosity/radiosity.h"
 
-namespace radbake {
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
-// Until the interreflection solver lands (issue 5), the answer is the emission alone: L = L⁰.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+
+#include "radiosity/form_factor.h"
+#include "radiosity/visibility.h"
+
+namespace radbake {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Sparse rows of the transport operator: row i holds (column, factor) pairs. Rows are built in
+// parallel but each row on its own in a fixed order, so the result does not depend on threads.
+struct SparseRows {
+  std::vector<size_t> start{0};
+  std::vector<uint32_t> column;
+  std::vector<double> value;
+};
+
+std::array<Vec3, 4> corners(const PatchMesh& mesh, const Patch& patch) {
+  return {mesh.positions[patch.v[0]], mesh.positions[patch.v[1]], mesh.positions[patch.v[2]], mesh.positions[patch.v[3]]};
+}
+
+Vec3 pointOnPatch(const std::array<Vec3, 4>& q, double s, double t) {
+  const auto n = shapeFunctions(s, t);
+  return q[0] * n[0] + q[1] * n[1] + q[2] * n[2] + q[3] * n[3];
+}
+
+// For each vertex, the direction into its own surface from which a crease vertex takes its limit:
+// the mean direction to the centroids of the patches around it (the corner bisector for a patch
+// corner, the inward perpendicular on an edge), in the vertex's tangent plane.
+std::vector<Vec3> approachDirections(const PatchMesh& mesh) {
+  std::vector<Vec3> sum(mesh.positions.size());
+  for (const Patch& patch : mesh.patches) {
+    const auto q = corners(mesh, patch);
+    const Vec3 centroid = pointOnPatch(q, 0, 0);
+    for (int k = 0; k < 4; ++k) {
+      if (k == 3 && patch.v[3] == patch.v[2]) continue;
+      sum[patch.v[k]] += normalize(centroid - mesh.positions[patch.v[k]]);
+    }
+  }
+  for (size_t v = 0; v < sum.size(); ++v) {
+    const Vec3& n = mesh.normals[v];
+    sum[v] = normalize(sum[v] - n * dot(sum[v], n));
+  }
+  return sum;
+}
+
+// Calls progress(fraction) at most ~100 times, from whichever worker crosses each step.
+class Ticker {
+ public:
+  Ticker(const std::function<void(double)>& progress, size_t total, double from, double to)
+      : progress_(progress), total_(std::max<size_t>(total, 1)), from_(from), to_(to) {}
+  void add(size_t n) {
+    if (!progress_) return;
+    const size_t before = done_.fetch_add(n);
+    if ((before + n) * 100 / total_ != before * 100 / total_) {
+      std::lock_guard lock(mutex_);
+      progress_(from_ + (to_ - from_) * double(before + n) / double(total_));
+    }
+  }
+
+ private:
+  const std::function<void(double)>& progress_;
+  size_t total_;
+  double from_, to_;
+  std::atomic<size_t> done_{0};
+  std::mutex mutex_;
+};
+
+// Visibility between a receiver point and a source patch, as a factor per shape function.
+// Five rays first (centre and four inner points); if they agree the pair is fully visible or
+// fully hidden. Otherwise a 4×4 Gauss grid on the source, each ray weighted by the shape function
+// and the unoccluded kernel there, gives the visible fraction of each K_j.
+std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& from, const Vec3& n,
+                                      const std::array<Vec3, 4>& q, const Vec3& qNormal) {
+  const double lift = occlusion.epsilon() * 10;
+  auto target = [&](double s, double t) { return pointOnPatch(q, s, t) + qNormal * lift; };
+  int seen = 0;
+  const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
+  for (const auto& st : probe) seen += occlusion.visible(from, target(st[0], st[1]));
+  if (seen == 5) return {1, 1, 1, 1};
+  if (seen == 0) return {0, 0, 0, 0};
+  constexpr double kNode[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
+  constexpr double kWeight[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
+  std::array<double, 4> all{}, visible{};
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      const Vec3 x = pointOnPatch(q, kNode[a], kNode[b]);
+      const Vec3 d = x - from;
+      const double r2 = dot(d, d);
+      const double kernel = std::max(0.0, dot(n, d)) * std::max(0.0, -dot(qNormal, d)) / (r2 * r2);
+      const bool v = occlusion.visible(from, target(kNode[a], kNode[b]));
+      const auto nj = shapeFunctions(kNode[a], kNode[b]);
+      for (int j = 0; j < 4; ++j) {
+        const double w = kWeight[a] * kWeight[b] * nj[j] * (kernel > 0 ? kernel : 1e-300);
+        all[j] += w;
+        if (v) visible[j] += w;
+      }
+    }
+  std::array<double, 4> out{};
+  for (int j = 0; j < 4; ++j) out[j] = all[j] > 0 ? visible[j] / all[j] : double(seen) / 5;
+  return out;
+}
+
+// Bilinear method: row i holds K_ij for every vertex j, K_ij = Σ over patches of the kernel from
+// vertex i to the patch's shape function at j, times visibility.
+SparseRows assembleBilinear(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
+  const size_t n = mesh.positions.size();
+  const std::vector<Vec3> approach = approachDirections(mesh);
+  std::vector<std::vector<std::pair<uint32_t, double>>> rows(n);
+  Ticker ticker(options.progress, n, 0.0, 0.8);
+  KernelOptions kernelOptions;
+  kernelOptions.relativeTolerance = options.kernelTolerance;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i != range.end(); ++i) {
+      const Vec3 p = mesh.positions[i], nrm = mesh.normals[i];
+      // Rays leave from just inside the vertex's own surface: off the crease, above the plane.
+      const Vec3 origin = p + (nrm + approach[i]) * (occlusion.epsilon() * 10);
+      auto& row = rows[i];
+      for (const Patch& patch : mesh.patches) {
+        const auto q = corners(mesh, patch);
+        // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
+        bool above = false;
+        for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
+        if (!above || dot(patch.normal, p - q[0]) < -occlusion.epsilon()) continue;
+        const auto k = vertexQuadKernel(p, nrm, approach[i], q, kernelOptions);
+        if (k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0) continue;
+        // A crease contribution sits at the receiver itself: nothing can come between.
+        const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
+        const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, patch.normal);
+        for (int j = 0; j < 4; ++j) {
+          if (j == 3 && patch.v[3] == patch.v[2]) {
+            row.emplace_back(patch.v[2], k[3] * vis[3]);  // the collapsed corner belongs to v2
+            continue;
+          }
+          if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);
+        }
+      }
+      std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      size_t w = 0;
+      for (size_t r = 0; r < row.size(); ++r) {
+        if (w > 0 && row[w - 1].first == row[r].first) row[w - 1].second += row[r].second;
+        else row[w++] = row[r];
+      }
+      row.resize(w);
+      row.shrink_to_fit();
+    }
+    ticker.add(range.size());
+  });
+  SparseRows out;
+  for (auto& row : rows) {
+    for (const auto& [c, v] : row) {
+      out.column.push_back(c);
+      out.value.push_back(v);
+    }
+    out.start.push_back(out.column.size());
+    std::vector<std::pair<uint32_t, double>>().swap(row);
+  }
+  return out;
+}
+
+// Constant method: row k holds the patch-to-patch factors F_kl (exact near, Gauss far: see
+// constantPatchFactor), times a visible fraction from rays between the two patches.
+SparseRows assembleConstant(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
+  const size_t n = mesh.patches.size();
+  std::vector<std::vector<std::pair<uint32_t, double>>> rows(n);
+  Ticker ticker(options.progress, n, 0.0, 0.8);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const Patch& pk = mesh.patches[k];
+      const auto qk = corners(mesh, pk);
+      const Vec3 lift = pk.normal * (occlusion.epsilon() * 10);
+      for (size_t l = 0; l < n; ++l) {
+        if (l == k) continue;
+        const Patch& pl = mesh.patches[l];
+        const auto ql = corners(mesh, pl);
+        bool facing = false;
+        for (const Vec3& c : ql) facing |= dot(pk.normal, c - qk[0]) > occlusion.epsilon();
+        bool front = false;
+        for (const Vec3& c : qk) front |= dot(pl.normal, c - ql[0]) > occlusion.epsilon();
+        if (!facing || !front) continue;
+        const double f = constantPatchFactor(qk, ql, 0.1 * options.kernelTolerance);
+        if (!(f > 0)) continue;
+        // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
+        // rays between inner points of both patches.
+        const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
+        auto ray = [&](int a, int b) {
+          return occlusion.visible(pointOnPatch(qk, probe[a][0], probe[a][1]) + lift,
+                                   pointOnPatch(ql, probe[b][0], probe[b][1]) + pl.normal * (occlusion.epsilon() * 10));
+        };
+        int seen = 0;
+        for (int b = 0; b < 5; ++b) seen += ray(0, b);
+        double vis = seen == 5 ? 1.0 : 0.0;
+        if (seen > 0 && seen < 5) {
+          seen = 0;
+          for (int a = 0; a < 5; ++a)
+            for (int b = 0; b < 5; ++b) seen += ray(a, b);
+          vis = seen / 25.0;
+        }
+        if (vis > 0) rows[k].emplace_back(uint32_t(l), f * vis);
+      }
+    }
+    ticker.add(range.size());
+  });
+  SparseRows out;
+  for (auto& row : rows) {
+    for (const auto& [c, v] : row) {
+      out.column.push_back(c);
+      out.value.push_back(v);
+    }
+    out.start.push_back(out.column.size());
+  }
+  return out;
+}
+
+// Jacobi iteration L ← L⁰ + ρ ⊙ (K L): every row independent, so parallel and bit-identical for
+// any thread count. Converges for ρ < 1 (each row of K sums to at most 1).
+void iterate(const SparseRows& K, const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
+             const RadiosityOptions& options, std::vector<Vec3>& L, std::vector<Vec3>& gathered, Solution& solution) {
+  const size_t n = emission.size();
+  L = emission;
+  gathered.assign(n, Vec3{});
+  double scale = 0;
+  for (const Vec3& e : emission) scale = std::max({scale, std::abs(e.x), std::abs(e.y), std::abs(e.z)});
+  if (scale == 0) return;  // no emitter: black is the answer
+  std::vector<Vec3> next(n);
+  std::vector<double> rowChange(n);
+  for (int it = 1; it <= options.maxIterations; ++it) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        Vec3 h{};
+        for (size_t e = K.start[i]; e < K.start[i + 1]; ++e) h += L[K.column[e]] * K.value[e];
+        gathered[i] = h;
+        next[i] = emission[i] + Vec3{reflectance[i].x * h.x, reflectance[i].y * h.y, reflectance[i].z * h.z};
+        const Vec3 d = next[i] - L[i];
+        rowChange[i] = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+      }
+    });
+    const double residual = *std::max_element(rowChange.begin(), rowChange.end()) / scale;
+    L.swap(next);
+    solution.iterations = it;
+    solution.residual = residual;
+    if (options.progress) options.progress(0.8 + 0.2 * std::min(1.0, std::log(residual) / std::log(options.relativeResidual)));
+    if (residual <= options.relativeResidual) break;
+  }
+}
+
+}  // namespace
+
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options) {
   Solution solution;
   solution.method = options.method;
-  solution.vertexRadiance.resize(mesh.positions.size());
-  for (size_t v = 0; v < mesh.positions.size(); ++v)
-    solution.vertexRadiance[v] = scene.materials[mesh.vertexMaterial[v]].emission;
-  solution.patchRadiance.resize(mesh.patches.size());
-  for (size_t p = 0; p < mesh.patches.size(); ++p)
-    solution.patchRadiance[p] = scene.materials[mesh.patches[p].material].emission;
+  solution.interreflection = true;
+  const Occlusion occlusion(mesh);
+  std::vector<Vec3> gathered;
+  if (options.method == Method::kBilinear) {
+    const SparseRows K = assembleBilinear(mesh, occlusion, options);
+    solution.matrixEntries = K.value.size();
+    std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      emission[v] = scene.materials[mesh.vertexMaterial[v]].emission;
+      reflectance[v] = scene.materials[mesh.vertexMaterial[v]].reflectance;
+    }
+    iterate(K, emission, reflectance, options, solution.vertexRadiance, gathered, solution);
+    // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
+    for (const Patch& patch : mesh.patches) {
+      const auto a = shapeFunctionAreas(corners(mesh, patch));
+      for (int j = 0; j < 4; ++j) {
+        const uint32_t v = patch.v[j];
+        const Vec3& rho = reflectance[v];
+        solution.emittedPower += kPi * a[j] * (emission[v].x + emission[v].y + emission[v].z) / 3;
+        solution.absorbedPower += kPi * a[j] *
+            ((1 - rho.x) * gathered[v].x + (1 - rho.y) * gathered[v].y + (1 - rho.z) * gathered[v].z) / 3;
+      }
+    }
+    // Per patch, the mean of the bilinear field (what a constant patch would hold).
+    solution.patchRadiance.resize(mesh.patches.size());
+    for (size_t p = 0; p < mesh.patches.size(); ++p) {
+      const auto a = shapeFunctionAreas(corners(mesh, mesh.patches[p]));
+      Vec3 sum{};
+      for (int j = 0; j < 4; ++j) sum += solution.vertexRadiance[mesh.patches[p].v[j]] * a[j];
+      solution.patchRadiance[p] = sum / (a[0] + a[1] + a[2] + a[3]);
+    }
+  } else {
+    const SparseRows F = assembleConstant(mesh, occlusion, options);
+    solution.matrixEntries = F.value.size();
+    std::vector<Vec3> emission(mesh.patches.size()), reflectance(mesh.patches.size());
+    for (size_t p = 0; p < mesh.patches.size(); ++p) {
+      emission[p] = scene.materials[mesh.patches[p].material].emission;
+      reflectance[p] = scene.materials[mesh.patches[p].material].reflectance;
+    }
+    iterate(F, emission, reflectance, options, solution.patchRadiance, gathered, solution);
+    for (size_t p = 0; p < mesh.patches.size(); ++p) {
+      const Vec3& rho = reflectance[p];
+      solution.emittedPower += kPi * mesh.patches[p].area * (emission[p].x + emission[p].y + emission[p].z) / 3;
+      solution.absorbedPower += kPi * mesh.patches[p].area *
+          ((1 - rho.x) * gathered[p].x + (1 - rho.y) * gathered[p].y + (1 - rho.z) * gathered[p].z) / 3;
+    }
+    // Vertex values for smooth display: area-weighted mean of the patches around each vertex.
+    std::vector<Vec3> sum(mesh.positions.size());
+    std::vector<double> weight(mesh.positions.size());
+    for (size_t p = 0; p < mesh.patches.size(); ++p)
+      for (int j = 0; j < 4; ++j) {
+        if (j == 3 && mesh.patches[p].v[3] == mesh.patches[p].v[2]) continue;
+        sum[mesh.patches[p].v[j]] += solution.patchRadiance[p] * mesh.patches[p].area;
+        weight[mesh.patches[p].v[j]] += mesh.patches[p].area;
+      }
+    solution.vertexRadiance.resize(mesh.positions.size());
+    for (size_t v = 0; v < sum.size(); ++v) solution.vertexRadiance[v] = weight[v] > 0 ? sum[v] / weight[v] : Vec3{};
+  }
   return solution;
+}
+
+Vec3 evaluateRadiance(const Solution& solution, const PatchMesh& mesh, const Vec3& point, const Vec3& normal) {
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 value{};
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
+    const Patch& patch = mesh.patches[p];
+    if (!(dot(patch.normal, normal) > 0)) continue;
+    const auto q = corners(mesh, patch);
+    const QuadPoint qp = nearestQuadPoint(q, point);
+    if (qp.distance >= best) continue;
+    best = qp.distance;
+    if (solution.method == Method::kConstant) {
+      value = solution.patchRadiance[p];
+    } else {
+      const auto n = shapeFunctions(qp.s, qp.t);
+      value = Vec3{};
+      for (int j = 0; j < 4; ++j) value += solution.vertexRadiance[patch.v[j]] * n[j];
+    }
+  }
+  return value;
 }
 
 }  // namespace radbake

@@ -20,7 +20,8 @@ struct RadiosityOptions {
   Method method = Method::kBilinear;
   double relativeResidual = 1e-6;  // stop when ‖L − (L⁰ + ρKL)‖ ≤ this × ‖L⁰‖
   int maxIterations = 10000;
-  std::function<void(double fraction)> progress;  // called from the solving thread; may be empty
+  double kernelTolerance = 1e-6;   // relative accuracy of each bilinear kernel K_ij
+  std::function<void(double fraction)> progress;  // serialized calls from worker threads; may be empty
 };
 
 struct Solution {
@@ -29,9 +30,20 @@ struct Solution {
   std::vector<Vec3> patchRadiance;   // per patch (constant method)
   int iterations = 0;
   double residual = 0;  // relative, as in RadiosityOptions
-  bool interreflection = false;  // false: emission only (L = L⁰), the stage is not built yet
+  bool interreflection = false;  // false: emission only (L = L⁰)
+  size_t matrixEntries = 0;      // stored transport factors (sparse rows)
+  // Power balance in radiance × area × π units, averaged over the three channels: what the
+  // emitters send out and what the surfaces absorb. In a closed scene they agree; the gap is the
+  // light that leaves an open scene (plus discretization error).
+  double emittedPower = 0;
+  double absorbedPower = 0;
 };
 
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options = {});
+
+// The solved radiance at the surface point nearest to `point` among patches whose normal faces
+// `normal` (dot > 0): bilinear inside a patch for the bilinear method, the patch value for the
+// constant method.
+Vec3 evaluateRadiance(const Solution& solution, const PatchMesh& mesh, const Vec3& point, const Vec3& normal);
 
 }  // namespace radbake

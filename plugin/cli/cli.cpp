@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -70,11 +71,9 @@ class Progress {
 
 // Options whose stage is not built yet: refuse with exit 3 rather than ignore them.
 std::string unbuiltOption(const Options& o) {
-  if (o.method == "constant") return "--method constant (the constant-patch baseline is not built yet)";
   if (!o.lightmap.empty()) return "--lightmap (lightmap output is not built yet)";
   if (o.exposure || !o.view.empty() || !o.display.empty() || !o.ocioConfig.empty())
     return "--exposure/--view/--display/--ocio-config (OpenColorIO display shaping is not built yet)";
-  if (!o.probe.empty() || !o.probeOut.empty()) return "--probe/--probe-out (probing is not built yet)";
   if (o.sky) return "--sky (sky lighting is not built yet)";
   return "";
 }
@@ -93,6 +92,42 @@ void checkInputKind(const std::string& input) {
 }
 
 nlohmann::json vec3Json(const Vec3& v) { return {v.x, v.y, v.z}; }
+
+// Probe points: CSV with a header, x,y,z,nx,ny,nz per line (world space).
+std::vector<std::pair<Vec3, Vec3>> readProbes(const std::string& path) {
+  const std::string name = std::filesystem::path(path).filename().string();
+  std::ifstream in(path);
+  if (!in) throw Error(ExitCode::kInvalidInput, name + ": cannot open: no such file or unreadable");
+  std::vector<std::pair<Vec3, Vec3>> probes;
+  std::string line;
+  int lineNumber = 0;
+  while (std::getline(in, line)) {
+    ++lineNumber;
+    if (line.empty() || line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    if (lineNumber == 1 && line.find_first_of("xXnN") != std::string::npos) continue;  // the header
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream fields(line);
+    double v[6];
+    for (double& x : v)
+      if (!(fields >> x) || !std::isfinite(x))
+        throw Error(ExitCode::kInvalidInput, name + ": line " + std::to_string(lineNumber) + ": expected six numbers x,y,z,nx,ny,nz");
+    const Vec3 normal{v[3], v[4], v[5]};
+    if (!(length(normal) > 0))
+      throw Error(ExitCode::kInvalidInput, name + ": line " + std::to_string(lineNumber) + ": the normal is zero");
+    probes.push_back({{v[0], v[1], v[2]}, normalize(normal)});
+  }
+  return probes;
+}
+
+std::string probeValues(const std::vector<std::pair<Vec3, Vec3>>& probes, const Solution& solution, const PatchMesh& mesh) {
+  std::ostringstream out;
+  out << std::setprecision(17) << "x,y,z,r,g,b\n";
+  for (const auto& [point, normal] : probes) {
+    const Vec3 L = evaluateRadiance(solution, mesh, point, normal);
+    out << point.x << "," << point.y << "," << point.z << "," << L.x << "," << L.y << "," << L.z << "\n";
+  }
+  return out.str();
+}
 
 void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
   const SceneCounts& c = scene.counts;
@@ -152,6 +187,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (!options.report.empty() && lowerExtension(options.report) != ".json")
     throw Error(ExitCode::kUsage, "radbake: --report " + options.report + " must end in .json");
   checkInputKind(options.input);
+  if (options.probe.empty() != options.probeOut.empty())
+    throw Error(ExitCode::kUsage, "radbake: --probe and --probe-out go together");
+  const auto probes = options.probe.empty() ? std::vector<std::pair<Vec3, Vec3>>{} : readProbes(options.probe);
 
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, options.threads);
@@ -173,11 +211,13 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   progress.stage("solve");
   RadiosityOptions radiosityOptions;
   radiosityOptions.relativeResidual = options.tolerance;
+  radiosityOptions.method = options.method == "constant" ? Method::kConstant : Method::kBilinear;
   radiosityOptions.progress = [&](double f) { progress.report(f); };
   const Solution solution = solveRadiosity(scene, mesh, radiosityOptions);
   const auto t3 = Clock::now();
   progress.stage("export");
   const ExportSummary summary = writeGltf(options.output, scene, mesh, solution.vertexRadiance);
+  if (!probes.empty()) writeFileAtomically(options.probeOut, probeValues(probes, solution, mesh));
   const auto t4 = Clock::now();
   progress.finishBar();
 
@@ -191,7 +231,10 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                     {"vertices", mesh.positions.size()}, {"writtenVertices", summary.writtenVertices},
                     {"clonedMeshes", summary.clonedMeshes}}},
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
-                    {"relativeResidual", solution.residual}, {"tolerance", options.tolerance}}},
+                    {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
+                    {"matrixEntries", solution.matrixEntries}}},
+        {"energy", {{"emittedPower", solution.emittedPower}, {"absorbedPower", solution.absorbedPower},
+                    {"escapedFraction", solution.emittedPower > 0 ? 1 - solution.absorbedPower / solution.emittedPower : 0.0}}},
         {"timings", {{"import", seconds(t0, t1)}, {"tessellate", seconds(t1, t2)}, {"solve", seconds(t2, t3)},
                      {"export", seconds(t3, t4)}, {"total", seconds(t0, t4)}}},
         {"warnings", scene.warnings}};

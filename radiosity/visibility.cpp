@@ -1,0 +1,79 @@
+#include "radiosity/visibility.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace radbake {
+
+struct Occlusion::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+Occlusion::Occlusion(const PatchMesh& mesh) : impl_(std::make_unique<Impl>()) {
+  impl_->device = rtcNewDevice("threads=1");  // the caller parallelizes queries; Embree only builds
+  if (!impl_->device) throw std::runtime_error("Embree device could not be created");
+  impl_->scene = rtcNewScene(impl_->device);
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);  // watertight-ish: no rays slipping through shared edges
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const Vec3& p : mesh.positions) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  epsilon_ = mesh.positions.empty() ? 1e-9 : std::max(1e-12, 1e-7 * length(hi - lo));
+
+  if (!mesh.patches.empty()) {
+    RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_QUAD);
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                                 3 * sizeof(float), mesh.positions.size()));
+    for (size_t i = 0; i < mesh.positions.size(); ++i) {
+      vertices[3 * i] = float(mesh.positions[i].x);
+      vertices[3 * i + 1] = float(mesh.positions[i].y);
+      vertices[3 * i + 2] = float(mesh.positions[i].z);
+    }
+    // A triangle patch (v2 == v3) is a valid Embree quad: Embree treats it as one triangle.
+    auto* quads = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
+                                                                 4 * sizeof(unsigned), mesh.patches.size()));
+    for (size_t i = 0; i < mesh.patches.size(); ++i)
+      for (int k = 0; k < 4; ++k) quads[4 * i + k] = mesh.patches[i].v[k];
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(impl_->scene, geom);
+    rtcReleaseGeometry(geom);
+  }
+  rtcCommitScene(impl_->scene);
+}
+
+Occlusion::~Occlusion() = default;
+
+bool Occlusion::visible(const Vec3& from, const Vec3& to) const {
+  const Vec3 d = to - from;
+  const double dist = length(d);
+  if (dist <= 2 * epsilon_) return true;
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray{};
+  ray.org_x = float(from.x);
+  ray.org_y = float(from.y);
+  ray.org_z = float(from.z);
+  ray.dir_x = float(d.x / dist);
+  ray.dir_y = float(d.y / dist);
+  ray.dir_z = float(d.z / dist);
+  ray.tnear = float(epsilon_);
+  ray.tfar = float(dist - epsilon_);
+  ray.mask = 0xFFFFFFFF;
+  ray.flags = 0;
+  rtcOccluded1(impl_->scene, &context, &ray);
+  return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
+}
+
+}  // namespace radbake

@@ -1,0 +1,33 @@
+// Internal to radiosity/: occlusion queries against every patch, with Embree 3.
+//
+// All Embree calls stay in visibility.cpp (Embree 4 changed the signatures). Every patch occludes
+// from both sides: a one-sided surface emits and reflects on its front only, but it still blocks
+// light, which is what keeps light from leaking under the Cornell box's blocks.
+#pragma once
+
+#include <memory>
+
+#include "tessellate/tessellate.h"
+
+namespace radbake {
+
+class Occlusion {
+ public:
+  explicit Occlusion(const PatchMesh& mesh);
+  ~Occlusion();
+  Occlusion(const Occlusion&) = delete;
+  Occlusion& operator=(const Occlusion&) = delete;
+
+  // True when nothing lies strictly between `from` and `to` (both ends excluded by a small margin
+  // relative to the scene size, so surfaces at the ends do not count). Thread-safe.
+  bool visible(const Vec3& from, const Vec3& to) const;
+  // A length that is negligible against the scene (1e-7 of its bounding-box diagonal).
+  double epsilon() const { return epsilon_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  double epsilon_ = 0;
+};
+
+}  // namespace radbake
