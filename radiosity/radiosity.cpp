@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <functional>
+#include <memory>
 #include <mutex>
 
 #include "radiosity/form_factor.h"
@@ -16,13 +18,91 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Sparse rows of the transport operator: row i holds (column, factor) pairs. Rows are built in
-// parallel but each row on its own in a fixed order, so the result does not depend on threads.
-struct SparseRows {
-  std::vector<size_t> start{0};
+// Calls progress(fraction) at most ~100 times, from whichever worker crosses each step.
+class Ticker {
+ public:
+  Ticker(const std::function<void(double)>& progress, size_t total, double from, double to)
+      : progress_(progress), total_(std::max<size_t>(total, 1)), from_(from), to_(to) {}
+  void add(size_t n) {
+    if (!progress_) return;
+    const size_t before = done_.fetch_add(n);
+    if ((before + n) * 100 / total_ != before * 100 / total_) {
+      std::lock_guard lock(mutex_);
+      progress_(from_ + (to_ - from_) * double(before + n) / double(total_));
+    }
+  }
+
+ private:
+  const std::function<void(double)>& progress_;
+  size_t total_;
+  double from_, to_;
+  std::atomic<size_t> done_{0};
+  std::mutex mutex_;
+};
+
+using Row = std::vector<std::pair<uint32_t, double>>;  // (column, factor), sorted by column
+
+// Sums duplicate columns (a vertex shared by several source patches) in a fixed order.
+void canonicalize(Row& row) {
+  std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  size_t w = 0;
+  for (size_t r = 0; r < row.size(); ++r) {
+    if (w > 0 && row[w - 1].first == row[r].first) row[w - 1].second += row[r].second;
+    else row[w++] = row[r];
+  }
+  row.resize(w);
+}
+
+// The transport operator, row i = what unknown i gathers from every other. Stored as sparse rows
+// when they fit the memory budget, else rebuilt on the fly in every iteration (matrix-free): the
+// same rows in the same order, so both give the same bits.
+struct Transport {
+  size_t rows = 0;
+  std::function<void(size_t, Row&)> build;  // computes row i
+  std::vector<size_t> start;                // stored form (empty: matrix-free)
   std::vector<uint32_t> column;
   std::vector<double> value;
+  bool stored() const { return !start.empty(); }
 };
+
+constexpr size_t kBytesPerEntry = sizeof(uint32_t) + sizeof(double);
+
+// Builds the rows in parallel and keeps them if their estimated size (from a sample of rows)
+// fits the budget.
+void storeIfItFits(Transport& t, const RadiosityOptions& options, size_t& entries) {
+  const size_t sampleStep = std::max<size_t>(1, t.rows / 64);
+  size_t sampled = 0, sampleRows = 0;
+  Row row;
+  for (size_t i = 0; i < t.rows; i += sampleStep, ++sampleRows) {
+    row.clear();
+    t.build(i, row);
+    sampled += row.size();
+  }
+  const double estimate = sampleRows ? double(sampled) / sampleRows * t.rows : 0;
+  if (estimate * kBytesPerEntry > double(options.matrixMemoryBytes)) {
+    entries = size_t(estimate);
+    return;
+  }
+  std::vector<Row> rows(t.rows);
+  Ticker ticker(options.progress, t.rows, 0.0, 0.8);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, t.rows, 16), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i != range.end(); ++i) {
+      t.build(i, rows[i]);
+      rows[i].shrink_to_fit();
+    }
+    ticker.add(range.size());
+  });
+  t.start.assign(1, 0);
+  for (Row& r : rows) {
+    for (const auto& [c, v] : r) {
+      t.column.push_back(c);
+      t.value.push_back(v);
+    }
+    t.start.push_back(t.column.size());
+    Row().swap(r);
+  }
+  entries = t.value.size();
+}
 
 std::array<Vec3, 4> corners(const PatchMesh& mesh, const Patch& patch) {
   return {mesh.positions[patch.v[0]], mesh.positions[patch.v[1]], mesh.positions[patch.v[2]], mesh.positions[patch.v[3]]};
@@ -52,28 +132,6 @@ std::vector<Vec3> approachDirections(const PatchMesh& mesh) {
   }
   return sum;
 }
-
-// Calls progress(fraction) at most ~100 times, from whichever worker crosses each step.
-class Ticker {
- public:
-  Ticker(const std::function<void(double)>& progress, size_t total, double from, double to)
-      : progress_(progress), total_(std::max<size_t>(total, 1)), from_(from), to_(to) {}
-  void add(size_t n) {
-    if (!progress_) return;
-    const size_t before = done_.fetch_add(n);
-    if ((before + n) * 100 / total_ != before * 100 / total_) {
-      std::lock_guard lock(mutex_);
-      progress_(from_ + (to_ - from_) * double(before + n) / double(total_));
-    }
-  }
-
- private:
-  const std::function<void(double)>& progress_;
-  size_t total_;
-  double from_, to_;
-  std::atomic<size_t> done_{0};
-  std::mutex mutex_;
-};
 
 // Visibility between a receiver point and a source patch, as a factor per shape function.
 // Five rays first (centre and four inner points); if they agree the pair is fully visible or
@@ -112,118 +170,82 @@ std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& fr
 
 // Bilinear method: row i holds K_ij for every vertex j, K_ij = Σ over patches of the kernel from
 // vertex i to the patch's shape function at j, times visibility.
-SparseRows assembleBilinear(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
-  const size_t n = mesh.positions.size();
-  const std::vector<Vec3> approach = approachDirections(mesh);
-  std::vector<std::vector<std::pair<uint32_t, double>>> rows(n);
-  Ticker ticker(options.progress, n, 0.0, 0.8);
+Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
+  Transport t;
+  t.rows = mesh.positions.size();
+  auto approach = std::make_shared<std::vector<Vec3>>(approachDirections(mesh));
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = options.kernelTolerance;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3 p = mesh.positions[i], nrm = mesh.normals[i];
-      // Rays leave from just inside the vertex's own surface: off the crease, above the plane.
-      const Vec3 origin = p + (nrm + approach[i]) * (occlusion.epsilon() * 10);
-      auto& row = rows[i];
-      for (const Patch& patch : mesh.patches) {
-        const auto q = corners(mesh, patch);
-        // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
-        bool above = false;
-        for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
-        if (!above || dot(patch.normal, p - q[0]) < -occlusion.epsilon()) continue;
-        const auto k = vertexQuadKernel(p, nrm, approach[i], q, kernelOptions);
-        if (k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0) continue;
-        // A crease contribution sits at the receiver itself: nothing can come between.
-        const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
-        const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, patch.normal);
-        for (int j = 0; j < 4; ++j) {
-          if (j == 3 && patch.v[3] == patch.v[2]) {
-            row.emplace_back(patch.v[2], k[3] * vis[3]);  // the collapsed corner belongs to v2
-            continue;
-          }
-          if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);
-        }
+  t.build = [&mesh, &occlusion, approach, kernelOptions](size_t i, Row& row) {
+    const Vec3 p = mesh.positions[i], nrm = mesh.normals[i], a = (*approach)[i];
+    // Rays leave from just inside the vertex's own surface: off the crease, above the plane.
+    const Vec3 origin = p + (nrm + a) * (occlusion.epsilon() * 10);
+    for (const Patch& patch : mesh.patches) {
+      const auto q = corners(mesh, patch);
+      // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
+      bool above = false;
+      for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
+      if (!above || dot(patch.normal, p - q[0]) < -occlusion.epsilon()) continue;
+      const auto k = vertexQuadKernel(p, nrm, a, q, kernelOptions);
+      if (k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0) continue;
+      // A crease contribution sits at the receiver itself: nothing can come between.
+      const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
+      const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, patch.normal);
+      for (int j = 0; j < 4; ++j) {
+        // A triangle's collapsed corner (v3 == v2) adds its shape function to v2.
+        if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);
       }
-      std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-      size_t w = 0;
-      for (size_t r = 0; r < row.size(); ++r) {
-        if (w > 0 && row[w - 1].first == row[r].first) row[w - 1].second += row[r].second;
-        else row[w++] = row[r];
-      }
-      row.resize(w);
-      row.shrink_to_fit();
     }
-    ticker.add(range.size());
-  });
-  SparseRows out;
-  for (auto& row : rows) {
-    for (const auto& [c, v] : row) {
-      out.column.push_back(c);
-      out.value.push_back(v);
-    }
-    out.start.push_back(out.column.size());
-    std::vector<std::pair<uint32_t, double>>().swap(row);
-  }
-  return out;
+    canonicalize(row);
+  };
+  return t;
 }
 
 // Constant method: row k holds the patch-to-patch factors F_kl (exact near, Gauss far: see
 // constantPatchFactor), times a visible fraction from rays between the two patches.
-SparseRows assembleConstant(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
-  const size_t n = mesh.patches.size();
-  std::vector<std::vector<std::pair<uint32_t, double>>> rows(n);
-  Ticker ticker(options.progress, n, 0.0, 0.8);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t k = range.begin(); k != range.end(); ++k) {
-      const Patch& pk = mesh.patches[k];
-      const auto qk = corners(mesh, pk);
-      const Vec3 lift = pk.normal * (occlusion.epsilon() * 10);
-      for (size_t l = 0; l < n; ++l) {
-        if (l == k) continue;
-        const Patch& pl = mesh.patches[l];
-        const auto ql = corners(mesh, pl);
-        bool facing = false;
-        for (const Vec3& c : ql) facing |= dot(pk.normal, c - qk[0]) > occlusion.epsilon();
-        bool front = false;
-        for (const Vec3& c : qk) front |= dot(pl.normal, c - ql[0]) > occlusion.epsilon();
-        if (!facing || !front) continue;
-        const double f = constantPatchFactor(qk, ql, 0.1 * options.kernelTolerance);
-        if (!(f > 0)) continue;
-        // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
-        // rays between inner points of both patches.
-        const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
-        auto ray = [&](int a, int b) {
-          return occlusion.visible(pointOnPatch(qk, probe[a][0], probe[a][1]) + lift,
-                                   pointOnPatch(ql, probe[b][0], probe[b][1]) + pl.normal * (occlusion.epsilon() * 10));
-        };
-        int seen = 0;
-        for (int b = 0; b < 5; ++b) seen += ray(0, b);
-        double vis = seen == 5 ? 1.0 : 0.0;
-        if (seen > 0 && seen < 5) {
-          seen = 0;
-          for (int a = 0; a < 5; ++a)
-            for (int b = 0; b < 5; ++b) seen += ray(a, b);
-          vis = seen / 25.0;
-        }
-        if (vis > 0) rows[k].emplace_back(uint32_t(l), f * vis);
+Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
+  Transport t;
+  t.rows = mesh.patches.size();
+  const double tolerance = 0.1 * options.kernelTolerance;
+  t.build = [&mesh, &occlusion, tolerance](size_t k, Row& row) {
+    const Patch& pk = mesh.patches[k];
+    const auto qk = corners(mesh, pk);
+    const Vec3 lift = pk.normal * (occlusion.epsilon() * 10);
+    for (size_t l = 0; l < mesh.patches.size(); ++l) {
+      if (l == k) continue;
+      const Patch& pl = mesh.patches[l];
+      const auto ql = corners(mesh, pl);
+      bool facing = false, front = false;
+      for (const Vec3& c : ql) facing |= dot(pk.normal, c - qk[0]) > occlusion.epsilon();
+      for (const Vec3& c : qk) front |= dot(pl.normal, c - ql[0]) > occlusion.epsilon();
+      if (!facing || !front) continue;
+      const double f = constantPatchFactor(qk, ql, tolerance);
+      if (!(f > 0)) continue;
+      // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
+      // rays between inner points of both patches.
+      const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
+      auto ray = [&](int a, int b) {
+        return occlusion.visible(pointOnPatch(qk, probe[a][0], probe[a][1]) + lift,
+                                 pointOnPatch(ql, probe[b][0], probe[b][1]) + pl.normal * (occlusion.epsilon() * 10));
+      };
+      int seen = 0;
+      for (int b = 0; b < 5; ++b) seen += ray(0, b);
+      double vis = seen == 5 ? 1.0 : 0.0;
+      if (seen > 0 && seen < 5) {
+        seen = 0;
+        for (int a = 0; a < 5; ++a)
+          for (int b = 0; b < 5; ++b) seen += ray(a, b);
+        vis = seen / 25.0;
       }
+      if (vis > 0) row.emplace_back(uint32_t(l), f * vis);
     }
-    ticker.add(range.size());
-  });
-  SparseRows out;
-  for (auto& row : rows) {
-    for (const auto& [c, v] : row) {
-      out.column.push_back(c);
-      out.value.push_back(v);
-    }
-    out.start.push_back(out.column.size());
-  }
-  return out;
+  };
+  return t;
 }
 
 // Jacobi iteration L ← L⁰ + ρ ⊙ (K L): every row independent, so parallel and bit-identical for
 // any thread count. Converges for ρ < 1 (each row of K sums to at most 1).
-void iterate(const SparseRows& K, const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
+void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
              const RadiosityOptions& options, std::vector<Vec3>& L, std::vector<Vec3>& gathered, Solution& solution) {
   const size_t n = emission.size();
   L = emission;
@@ -234,10 +256,17 @@ void iterate(const SparseRows& K, const std::vector<Vec3>& emission, const std::
   std::vector<Vec3> next(n);
   std::vector<double> rowChange(n);
   for (int it = 1; it <= options.maxIterations; ++it) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& range) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, K.stored() ? 256 : 8), [&](const tbb::blocked_range<size_t>& range) {
+      Row row;
       for (size_t i = range.begin(); i != range.end(); ++i) {
         Vec3 h{};
-        for (size_t e = K.start[i]; e < K.start[i + 1]; ++e) h += L[K.column[e]] * K.value[e];
+        if (K.stored()) {
+          for (size_t e = K.start[i]; e < K.start[i + 1]; ++e) h += L[K.column[e]] * K.value[e];
+        } else {
+          row.clear();
+          K.build(i, row);
+          for (const auto& [c, v] : row) h += L[c] * v;
+        }
         gathered[i] = h;
         next[i] = emission[i] + Vec3{reflectance[i].x * h.x, reflectance[i].y * h.y, reflectance[i].z * h.z};
         const Vec3 d = next[i] - L[i];
@@ -262,8 +291,9 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   const Occlusion occlusion(mesh);
   std::vector<Vec3> gathered;
   if (options.method == Method::kBilinear) {
-    const SparseRows K = assembleBilinear(mesh, occlusion, options);
-    solution.matrixEntries = K.value.size();
+    Transport K = bilinearTransport(mesh, occlusion, options);
+    storeIfItFits(K, options, solution.matrixEntries);
+    solution.matrixFree = !K.stored();
     std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
     for (size_t v = 0; v < mesh.positions.size(); ++v) {
       emission[v] = scene.materials[mesh.vertexMaterial[v]].emission;
@@ -290,8 +320,9 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       solution.patchRadiance[p] = sum / (a[0] + a[1] + a[2] + a[3]);
     }
   } else {
-    const SparseRows F = assembleConstant(mesh, occlusion, options);
-    solution.matrixEntries = F.value.size();
+    Transport F = constantTransport(mesh, occlusion, options);
+    storeIfItFits(F, options, solution.matrixEntries);
+    solution.matrixFree = !F.stored();
     std::vector<Vec3> emission(mesh.patches.size()), reflectance(mesh.patches.size());
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       emission[p] = scene.materials[mesh.patches[p].material].emission;

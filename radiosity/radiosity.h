@@ -21,6 +21,9 @@ struct RadiosityOptions {
   double relativeResidual = 1e-6;  // stop when ‖L − (L⁰ + ρKL)‖ ≤ this × ‖L⁰‖
   int maxIterations = 10000;
   double kernelTolerance = 1e-6;   // relative accuracy of each bilinear kernel K_ij
+  // Past this size the transport rows are not stored but recomputed in every iteration
+  // (matrix-free: memory stays O(n), time grows by the iteration count).
+  size_t matrixMemoryBytes = size_t(2) << 30;
   std::function<void(double fraction)> progress;  // serialized calls from worker threads; may be empty
 };
 
@@ -31,7 +34,8 @@ struct Solution {
   int iterations = 0;
   double residual = 0;  // relative, as in RadiosityOptions
   bool interreflection = false;  // false: emission only (L = L⁰)
-  size_t matrixEntries = 0;      // stored transport factors (sparse rows)
+  size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
+  bool matrixFree = false;
   // Power balance in radiance × area × π units, averaged over the three channels: what the
   // emitters send out and what the surfaces absorb. In a closed scene they agree; the gap is the
   // light that leaves an open scene (plus discretization error).

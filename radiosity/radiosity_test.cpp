@@ -217,3 +217,84 @@ TEST(Solver, CornellBoxStaysBoundedAndNoLightLeaksUnderBlocks) {
 }
 
 }  // namespace
+
+namespace {
+
+// An axis-aligned box as one primitive: 6 faces of 2 triangles, facing in or out, own vertices
+// per face (creases are not welded).
+Primitive boxPrimitive(const Vec3& lo, const Vec3& hi, bool inward, int material) {
+  Primitive p;
+  p.material = material;
+  p.hasNormals = true;
+  const Vec3 c[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z}, {lo.x, hi.y, lo.z},
+                     {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {hi.x, hi.y, hi.z}, {lo.x, hi.y, hi.z}};
+  // Faces counter-clockwise seen from outside.
+  const int faces[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {3, 7, 6, 2}, {0, 4, 7, 3}, {1, 2, 6, 5}};
+  for (const auto& f : faces) {
+    int q[4] = {f[0], f[1], f[2], f[3]};
+    if (inward) std::swap(q[1], q[3]);
+    const Vec3 n = normalize(cross(c[q[1]] - c[q[0]], c[q[2]] - c[q[0]]));
+    const uint32_t base = uint32_t(p.positions.size());
+    for (int k : q) {
+      p.positions.push_back(c[k]);
+      p.normals.push_back(n);
+    }
+    p.triangles.push_back({base, base + 1, base + 2});
+    p.triangles.push_back({base, base + 2, base + 3});
+  }
+  return p;
+}
+
+TEST(Visibility, NoLightLeaksOutOfAClosedBox) {
+  // A lamp box (glowing inside, closed, its outside a zero-thickness shell on the same corners)
+  // floats in a room. Its outside and the room must stay exactly black at every vertex, including
+  // the shell's vertices on the lamp's edges and corners, which coincide with lit vertices.
+  Scene scene;
+  scene.materials = {{"room", -1, {0.5, 0.5, 0.5}, {0, 0, 0}, false}, {"glow", -1, {0.5, 0.5, 0.5}, {1, 1, 1}, false}};
+  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {2, 2, 2}, true, 0));         // the room
+  scene.primitives.push_back(boxPrimitive({0.5, 0.25, 0.5}, {1, 1, 1}, true, 1));   // lamp, inside
+  scene.primitives.push_back(boxPrimitive({0.5, 0.25, 0.5}, {1, 1, 1}, false, 0));  // lamp, outside
+  for (int p = 0; p < 3; ++p) scene.primitives[p].primitive = p;
+  TessellateOptions t;
+  t.subdivide = 3;
+  const PatchMesh mesh = tessellate(scene, t);
+  const Solution solution = solveRadiosity(scene, mesh);
+  int dark = 0, lit = 0;
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    if (mesh.vertexMaterial[v] == 1) {
+      EXPECT_NEAR(solution.vertexRadiance[v].x, 2.0, 1e-6);  // a closed furnace inside the lamp
+      ++lit;
+    } else {
+      EXPECT_EQ(solution.vertexRadiance[v].x, 0.0) << "leak at " << mesh.positions[v].x << " "
+                                                   << mesh.positions[v].y << " " << mesh.positions[v].z;
+      ++dark;
+    }
+  }
+  EXPECT_GT(dark, 0);
+  EXPECT_GT(lit, 0);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Solver, MatrixFreeGivesTheSameBitsAsStoredRows) {
+  for (Method method : {Method::kBilinear, Method::kConstant}) {
+    const Scene scene = importScene((kScenes / "cornell_box.gltf").string());
+    TessellateOptions t;
+    t.subdivide = 2;
+    const PatchMesh mesh = tessellate(scene, t);
+    RadiosityOptions stored, free;
+    stored.method = free.method = method;
+    free.matrixMemoryBytes = 0;
+    const Solution a = solveRadiosity(scene, mesh, stored);
+    const Solution b = solveRadiosity(scene, mesh, free);
+    EXPECT_FALSE(a.matrixFree);
+    EXPECT_TRUE(b.matrixFree);
+    EXPECT_EQ(a.iterations, b.iterations);
+    ASSERT_EQ(a.vertexRadiance.size(), b.vertexRadiance.size());
+    for (size_t i = 0; i < a.vertexRadiance.size(); ++i) EXPECT_TRUE(a.vertexRadiance[i] == b.vertexRadiance[i]) << i;
+  }
+}
+
+}  // namespace

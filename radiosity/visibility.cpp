@@ -19,7 +19,9 @@ struct Occlusion::Impl {
 };
 
 Occlusion::Occlusion(const PatchMesh& mesh) : impl_(std::make_unique<Impl>()) {
-  impl_->device = rtcNewDevice("threads=1");  // the caller parallelizes queries; Embree only builds
+  // No "threads=N" config: Embree on TBB would install a process-wide tbb::global_control with it
+  // and serialize the whole solver.
+  impl_->device = rtcNewDevice(nullptr);
   if (!impl_->device) throw std::runtime_error("Embree device could not be created");
   impl_->scene = rtcNewScene(impl_->device);
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);  // watertight-ish: no rays slipping through shared edges

@@ -232,7 +232,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                     {"clonedMeshes", summary.clonedMeshes}}},
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
-                    {"matrixEntries", solution.matrixEntries}}},
+                    {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree}}},
         {"energy", {{"emittedPower", solution.emittedPower}, {"absorbedPower", solution.absorbedPower},
                     {"escapedFraction", solution.emittedPower > 0 ? 1 - solution.absorbedPower / solution.emittedPower : 0.0}}},
         {"timings", {{"import", seconds(t0, t1)}, {"tessellate", seconds(t1, t2)}, {"solve", seconds(t2, t3)},
