@@ -24,10 +24,12 @@ struct ExportSummary {
   long long writtenVertices = 0;
 };
 
-// vertexRadiance: linear outgoing radiance per PatchMesh vertex. Throws Error(kCannotWrite) when the
+// vertexRadiance: linear outgoing radiance per PatchMesh vertex; patchRadiance (may be empty): per
+// patch, written on tessellations made with flatPatches (the constant method). Throws Error(kCannotWrite) when the
 // output cannot be written (and leaves nothing behind), Error(kUsage) for an unknown extension.
 ExportSummary writeGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
-                        const std::vector<Vec3>& vertexRadiance, const ExportOptions& options = {});
+                        const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance = {},
+                        const ExportOptions& options = {});
 
 // Writes `bytes` to `path` atomically: a temporary file beside it, then rename.
 void writeFileAtomically(const std::string& path, const std::string& bytes);

@@ -278,7 +278,8 @@ void writeFileAtomically(const std::string& path, const std::string& bytes) {
 }
 
 ExportSummary writeGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
-                        const std::vector<Vec3>& vertexRadiance, const ExportOptions& options) {
+                        const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance,
+                        const ExportOptions& options) {
   const std::string ext = lowerExtension(path);
   if (ext != ".glb" && ext != ".gltf")
     throw Error(ExitCode::kUsage, path + ": output must end in .glb or .gltf");
@@ -314,8 +315,9 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
     tinygltf::Primitive& target = m.meshes[meshOfNode[prim.node]].primitives[prim.primitive];
     std::vector<Vec3> radiance(patches.patchVertex.size());
     for (size_t v = 0; v < radiance.size(); ++v)
-      radiance[v] = patches.patchVertex[v] == UINT32_MAX ? scene.materials[prim.material].emission
-                                                         : vertexRadiance[patches.patchVertex[v]];
+      radiance[v] = !patches.patch.empty() && !patchRadiance.empty() ? patchRadiance[patches.patch[v]]
+                    : patches.patchVertex[v] == UINT32_MAX       ? scene.materials[prim.material].emission
+                                                                 : vertexRadiance[patches.patchVertex[v]];
     if (!patches.keepsSourceVertices) target = tessellatedPrimitive(m, target, prim, patches);
     addBakeAttributes(m, target, radiance);
     ++summary.bakedPrimitives;

@@ -149,7 +149,7 @@ SurfacePoint locate(const Primitive& prim, const Face& face, const Vec3& x) {
   return best;
 }
 
-void tessellatePrimitive(const Scene& scene, int primIndex, int n, Welder& welder, PatchMesh& mesh) {
+void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, Welder& welder, PatchMesh& mesh) {
   const Primitive& prim = scene.primitives[primIndex];
   PrimitivePatches& out = mesh.primitives[primIndex];
   const int material = prim.material;
@@ -167,7 +167,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, Welder& welde
     return 0.5 * length(cross(p[2] - p[0], p[3] - p[1]));  // planar quad (or triangle with p2 == p3)
   };
 
-  if (n == 1) {
+  if (n == 1 && !flat) {
     // Keep the glTF vertices when every vertex welds to exactly one patch vertex.
     out.patchVertex.assign(prim.positions.size(), kUnused);
     bool keeps = true;
@@ -195,6 +195,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, Welder& welde
   // of different normals becomes one output vertex per face).
   std::map<std::pair<PointId, uint32_t>, uint32_t> outputIndex;
   std::vector<uint32_t> grid((n + 1) * (n + 1)), outGrid((n + 1) * (n + 1));
+  std::vector<SurfacePoint> gridSource((n + 1) * (n + 1));
   for (size_t fi = 0; fi < faces.size(); ++fi) {
     const Face& f = faces[fi];
     const bool triangle = f.q[2] == f.q[3];
@@ -220,6 +221,10 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, Welder& welde
         else point = {corner[0] * w[0] + corner[1] * w[1] + corner[2] * w[2] + corner[3] * w[3], {2, uint32_t(fi), 0, i, j}};
         const uint32_t pv = welder.vertex(point.first, normalAt(f, w), material);
         grid[j * (n + 1) + i] = pv;
+        if (flat) {
+          gridSource[j * (n + 1) + i] = locate(prim, f, point.first);
+          continue;
+        }
         auto [it, inserted] = outputIndex.try_emplace({point.second, pv}, uint32_t(out.patchVertex.size()));
         if (inserted) {
           out.patchVertex.push_back(pv);
@@ -235,6 +240,18 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, Welder& welde
         patch.area = quadArea({mesh.positions[grid[c0]], mesh.positions[grid[c1]], mesh.positions[grid[c2]],
                                mesh.positions[grid[c3]]});
         mesh.patches.push_back(patch);
+        if (flat) {
+          // Own output vertices per patch, so a viewer shows the patch's one value flat.
+          const uint32_t first = uint32_t(out.patchVertex.size());
+          for (int c : {c0, c1, c2, c3}) {
+            out.patchVertex.push_back(grid[c]);
+            out.source.push_back(gridSource[c]);
+            out.patch.push_back(uint32_t(mesh.patches.size() - 1));
+          }
+          out.triangles.push_back({first, first + 1, first + 2});
+          if (!collapsed) out.triangles.push_back({first, first + 2, first + 3});
+          continue;
+        }
         out.triangles.push_back({outGrid[c0], outGrid[c1], outGrid[c2]});
         if (!collapsed) out.triangles.push_back({outGrid[c0], outGrid[c2], outGrid[c3]});
       }
@@ -248,7 +265,7 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   mesh.primitives.resize(scene.primitives.size());
   Welder welder{mesh, {}};
   for (size_t p = 0; p < scene.primitives.size(); ++p)
-    tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), welder, mesh);
+    tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, welder, mesh);
   return mesh;
 }
 

@@ -37,6 +37,7 @@ struct PrimitivePatches {
   std::vector<uint32_t> patchVertex;             // patch-mesh vertex of each output vertex (UINT32_MAX: unused)
   std::vector<SurfacePoint> source;              // where each output vertex lies (when !keepsSourceVertices)
   std::vector<std::array<uint32_t, 3>> triangles;  // output triangles (when !keepsSourceVertices)
+  std::vector<uint32_t> patch;                   // patch of each output vertex (flatPatches only)
 };
 
 struct PatchMesh {
@@ -50,6 +51,7 @@ struct PatchMesh {
 struct TessellateOptions {
   int subdivide = 1;         // split every face into subdivide × subdivide patches
   double maxEdgeLength = 0;  // > 0: per primitive, the smallest subdivision with every patch edge ≤ this
+  bool flatPatches = false;  // output vertices per patch (to show one value per patch, flat-shaded)
 };
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options = {});

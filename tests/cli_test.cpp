@@ -253,6 +253,31 @@ TEST(Bake, FurnaceRadianceIsTwoInTheWrittenFile) {
   }
 }
 
+TEST(Bake, ConstantMethodIsWrittenFlatShaded) {
+  const fs::path out = tempDir() / "cornell_constant.glb";
+  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+                               "--method", "constant", "--subdivide", "2", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  size_t triangles = 0;
+  for (const auto& mesh : m.meshes)
+    for (const auto& prim : mesh.primitives) {
+      const std::vector<float> L = radianceOf(m, prim);
+      const std::string idx = accessorBytes(m, prim.indices);
+      const auto* index = reinterpret_cast<const uint32_t*>(idx.data());
+      for (size_t t = 0; t < idx.size() / 12; ++t, ++triangles)
+        for (int c = 0; c < 3; ++c) {
+          EXPECT_EQ(L[3 * index[3 * t] + c], L[3 * index[3 * t + 1] + c]);
+          EXPECT_EQ(L[3 * index[3 * t] + c], L[3 * index[3 * t + 2] + c]);
+        }
+    }
+  EXPECT_GT(triangles, 0u);
+  if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed";
+  std::string log;
+  EXPECT_EQ(runValidator({out}, &log), 0) << log;
+}
+
 TEST(Bake, ReimportingGivesTheSameRadianceBitForBit) {
   const fs::path first = tempDir() / "cornell_first.glb", second = tempDir() / "cornell_second.glb";
   ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", first.string(), "-q"}).code, 0);

@@ -206,6 +206,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   TessellateOptions tessellateOptions;
   tessellateOptions.subdivide = options.subdivide;
   tessellateOptions.maxEdgeLength = options.maxEdge;
+  tessellateOptions.flatPatches = options.method == "constant";
   const PatchMesh mesh = tessellate(scene, tessellateOptions);
   const auto t2 = Clock::now();
   progress.stage("solve");
@@ -216,7 +217,8 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   const Solution solution = solveRadiosity(scene, mesh, radiosityOptions);
   const auto t3 = Clock::now();
   progress.stage("export");
-  const ExportSummary summary = writeGltf(options.output, scene, mesh, solution.vertexRadiance);
+  const ExportSummary summary = writeGltf(options.output, scene, mesh, solution.vertexRadiance,
+                                          options.method == "constant" ? solution.patchRadiance : std::vector<Vec3>{});
   if (!probes.empty()) writeFileAtomically(options.probeOut, probeValues(probes, solution, mesh));
   const auto t4 = Clock::now();
   progress.finishBar();
