@@ -201,6 +201,53 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
   return out;
 }
 
+// Curved input without a glTF primitive (a .bpt): a new node, mesh and material carry it.
+void addGeneratedSurface(tinygltf::Model& m, const Scene& scene, const PatchMesh& mesh, const GeneratedSurface& surface,
+                         const std::vector<Vec3>& vertexRadiance) {
+  const Material& material = scene.materials[surface.material];
+  tinygltf::Material mat;
+  mat.name = material.name;
+  mat.pbrMetallicRoughness.baseColorFactor = {material.reflectance.x, material.reflectance.y, material.reflectance.z, 1};
+  mat.pbrMetallicRoughness.metallicFactor = 0;
+  mat.pbrMetallicRoughness.roughnessFactor = 1;
+  m.materials.push_back(mat);
+
+  std::vector<float> positions, normals;
+  std::vector<Vec3> radiance;
+  for (uint32_t v : surface.patchVertex) {
+    const Vec3 &p = mesh.positions[v], &n = mesh.normals[v];
+    positions.insert(positions.end(), {float(p.x), float(p.y), float(p.z)});
+    normals.insert(normals.end(), {float(n.x), float(n.y), float(n.z)});
+    radiance.push_back(vertexRadiance[v]);
+  }
+  tinygltf::Primitive prim;
+  prim.mode = TINYGLTF_MODE_TRIANGLES;
+  prim.material = int(m.materials.size()) - 1;
+  prim.attributes["POSITION"] = appendFloatAccessor(m, positions, TINYGLTF_TYPE_VEC3, 3, true);
+  prim.attributes["NORMAL"] = appendFloatAccessor(m, normals, TINYGLTF_TYPE_VEC3, 3, false);
+  std::vector<uint32_t> indices;
+  for (const auto& t : surface.triangles) indices.insert(indices.end(), t.begin(), t.end());
+  tinygltf::Accessor ia;
+  ia.bufferView = appendView(m, indices.data(), indices.size() * 4, kElementArrayBuffer);
+  ia.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  ia.type = TINYGLTF_TYPE_SCALAR;
+  ia.count = indices.size();
+  m.accessors.push_back(ia);
+  prim.indices = int(m.accessors.size()) - 1;
+  addBakeAttributes(m, prim, radiance);
+
+  tinygltf::Mesh out;
+  out.name = std::filesystem::path(scene.path).stem().string();
+  out.primitives.push_back(prim);
+  m.meshes.push_back(out);
+  tinygltf::Node node;
+  node.name = out.name;
+  node.mesh = int(m.meshes.size()) - 1;
+  m.nodes.push_back(node);
+  if (m.scenes.empty()) m.scenes.emplace_back();
+  m.scenes[m.defaultScene >= 0 ? m.defaultScene : 0].nodes.push_back(int(m.nodes.size()) - 1);
+}
+
 void appendU32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(char((v >> (8 * i)) & 0xFF));
 }
@@ -283,9 +330,15 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
   const std::string ext = lowerExtension(path);
   if (ext != ".glb" && ext != ".gltf")
     throw Error(ExitCode::kUsage, path + ": output must end in .glb or .gltf");
-  if (!scene.document) throw Error(ExitCode::kUnsupported, path + ": the input has no glTF document to write back");
-
-  tinygltf::Model m = scene.document->model;
+  tinygltf::Model m;
+  if (scene.document) {
+    m = scene.document->model;
+  } else {
+    m.asset.version = "2.0";
+    m.asset.generator = "radbake";
+    m.scenes.emplace_back();
+    m.defaultScene = 0;
+  }
   consolidateBuffers(m);
   ExportSummary summary;
 
@@ -324,6 +377,11 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
     summary.writtenVertices += radiance.size();
   }
 
+  for (const GeneratedSurface& surface : mesh.generated) {
+    addGeneratedSurface(m, scene, mesh, surface, vertexRadiance);
+    ++summary.bakedPrimitives;
+    summary.writtenVertices += surface.patchVertex.size();
+  }
   writeFileAtomically(path, serialize(m, ext == ".glb", options.pretty));
   return summary;
 }

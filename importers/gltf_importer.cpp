@@ -15,6 +15,7 @@
 #include "importers/gltf_document.h"
 #include "importers/gltf_schema.h"
 #include "importers/importers.h"
+#include "importers/bpt_importer.h"
 
 namespace radbake {
 namespace {
@@ -547,6 +548,9 @@ bool Scene::hasEmitter() const {
 }
 
 Scene importScene(const std::string& path, const ImportOptions& options) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".bpt") return importBezierPatches(path);
   Scene scene;
   scene.path = path;
   Context ctx{std::filesystem::path(path).filename().string(), &scene.warnings};

@@ -57,6 +57,13 @@ struct Primitive {
   std::vector<std::array<uint32_t, 3>> triangles;    // indices into positions
 };
 
+// A tensor-product Bezier patch (.bpt): S(u,v) = Σ_i Σ_j B_i(u) B_j(v) P[i][j], u, v ∈ [0,1].
+struct BezierPatch {
+  int degreeU = 3, degreeV = 3;
+  std::vector<Vec3> control;  // (degreeU+1)·(degreeV+1) points, P[i][j] at i·(degreeV+1) + j
+  int material = 0;
+};
+
 struct SourceDocument;  // the parsed glTF, defined in importers/gltf_document.h for the exporter only
 
 struct SceneCounts {
@@ -69,6 +76,7 @@ struct Scene {
   std::string path;
   std::vector<Material> materials;    // glTF materials in order, then the default material
   std::vector<Primitive> primitives;  // every triangle primitive instance of the default scene
+  std::vector<BezierPatch> bezierPatches;  // curved input (.bpt), one smooth surface
   std::vector<std::string> warnings;  // each names the file and the element
   SceneCounts counts;                 // what the document holds (for `radbake info`)
   std::vector<std::string> extensionsUsed;
@@ -82,7 +90,8 @@ struct ImportOptions {
   bool requireSupportedExtensions = true;
 };
 
-// Reads INPUT (.gltf or .glb). Throws Error (exit 2 invalid, 3 unsupported) with one line naming
+// Reads INPUT (.gltf, .glb or .bpt). A .bpt (Bezier patches, z up) is turned to glTF's y up,
+// (x, y, z) → (x, z, −y), and given one white material (ρ 0.8). Throws Error (exit 2 invalid, 3 unsupported) with one line naming
 // the file and the broken element.
 Scene importScene(const std::string& path, const ImportOptions& options = {});
 

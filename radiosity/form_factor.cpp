@@ -28,6 +28,9 @@ constexpr double kCellRatio = 1.0;
 // any physically meaningful receiver distance.
 constexpr int kMaxDepth = 48;
 constexpr int kMaxGaussOrder = 32;
+// Projected solid angles below this are rounding noise (slivers left by horizon clipping), not
+// light: a bake never resolves them, and keeping them leaks 1e-33 through closed shells.
+constexpr double kNegligibleLimitFactor = 1e-13;
 
 // ---------------------------------------------------------------------------
 // Polygons
@@ -536,13 +539,17 @@ std::array<double, 4> vertexQuadKernel(const Vec3& p, const Vec3& n, const Vec3&
     }
     Scratch scratch;
     const double f = limitFactor(poly, p, n, approach, scratch);
+    // A cone lying behind the receiver's horizon clips to a sliver of rounding size; a crease
+    // factor that small is no light at all (and would leak 1e-35 through closed corners).
+    if (!(f > kNegligibleLimitFactor)) return k;
     const auto nj = shapeFunctions(np.s, np.t);
     for (int j = 0; j < 4; ++j) k[j] = nj[j] * f;
     return k;
   }
   Scratch scratch;
   const double f = pointFactor(poly, p, n, scratch);
-  if (!(f > 0)) return k;
+  // Below this the factor is a horizon-clipping sliver of rounding size, not light.
+  if (!(f > kNegligibleLimitFactor)) return k;
   const NearestPoint np = nearestPoint(map, poly.normal, p);
   KernelIntegrator integ(quad, p, n, options.relativeTolerance);
   integ.nStar = shapeFunctions(np.s, np.t);

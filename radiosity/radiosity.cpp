@@ -9,6 +9,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <span>
 
 #include "radiosity/form_factor.h"
 #include "radiosity/visibility.h"
@@ -17,6 +18,28 @@ namespace radbake {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+
+// The patches around each vertex (CSR), to keep them from occluding the vertex's own rays.
+struct VertexPatches {
+  std::vector<size_t> start;
+  std::vector<uint32_t> patch;
+  std::span<const uint32_t> of(size_t v) const { return {patch.data() + start[v], start[v + 1] - start[v]}; }
+};
+
+VertexPatches vertexPatches(const PatchMesh& mesh) {
+  VertexPatches out;
+  out.start.assign(mesh.positions.size() + 1, 0);
+  for (const Patch& p : mesh.patches)
+    for (int k = 0; k < 4; ++k)
+      if (k < 3 || p.v[3] != p.v[2]) ++out.start[p.v[k] + 1];
+  for (size_t v = 0; v < mesh.positions.size(); ++v) out.start[v + 1] += out.start[v];
+  out.patch.resize(out.start.back());
+  std::vector<size_t> fill(out.start.begin(), out.start.end() - 1);
+  for (size_t i = 0; i < mesh.patches.size(); ++i)
+    for (int k = 0; k < 4; ++k)
+      if (k < 3 || mesh.patches[i].v[3] != mesh.patches[i].v[2]) out.patch[fill[mesh.patches[i].v[k]]++] = uint32_t(i);
+  return out;
+}
 
 // Calls progress(fraction) at most ~100 times, from whichever worker crosses each step.
 class Ticker {
@@ -138,12 +161,13 @@ std::vector<Vec3> approachDirections(const PatchMesh& mesh) {
 // fully hidden. Otherwise a 4×4 Gauss grid on the source, each ray weighted by the shape function
 // and the unoccluded kernel there, gives the visible fraction of each K_j.
 std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& from, const Vec3& n,
-                                      const std::array<Vec3, 4>& q, const Vec3& qNormal) {
+                                      const std::array<Vec3, 4>& q, const Vec3& qNormal,
+                                      std::span<const uint32_t> ignore) {
   const double lift = occlusion.epsilon() * 10;
   auto target = [&](double s, double t) { return pointOnPatch(q, s, t) + qNormal * lift; };
   int seen = 0;
   const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
-  for (const auto& st : probe) seen += occlusion.visible(from, target(st[0], st[1]));
+  for (const auto& st : probe) seen += occlusion.visible(from, target(st[0], st[1]), ignore);
   if (seen == 5) return {1, 1, 1, 1};
   if (seen == 0) return {0, 0, 0, 0};
   constexpr double kNode[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
@@ -155,7 +179,7 @@ std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& fr
       const Vec3 d = x - from;
       const double r2 = dot(d, d);
       const double kernel = std::max(0.0, dot(n, d)) * std::max(0.0, -dot(qNormal, d)) / (r2 * r2);
-      const bool v = occlusion.visible(from, target(kNode[a], kNode[b]));
+      const bool v = occlusion.visible(from, target(kNode[a], kNode[b]), ignore);
       const auto nj = shapeFunctions(kNode[a], kNode[b]);
       for (int j = 0; j < 4; ++j) {
         const double w = kWeight[a] * kWeight[b] * nj[j] * (kernel > 0 ? kernel : 1e-300);
@@ -174,13 +198,17 @@ Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
   Transport t;
   t.rows = mesh.positions.size();
   auto approach = std::make_shared<std::vector<Vec3>>(approachDirections(mesh));
+  auto around = std::make_shared<VertexPatches>(vertexPatches(mesh));
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = options.kernelTolerance;
-  t.build = [&mesh, &occlusion, approach, kernelOptions](size_t i, Row& row) {
+  t.build = [&mesh, &occlusion, approach, around, kernelOptions](size_t i, Row& row) {
     const Vec3 p = mesh.positions[i], nrm = mesh.normals[i], a = (*approach)[i];
+    std::vector<uint32_t> ignore(around->of(i).begin(), around->of(i).end());
+    ignore.push_back(0);  // the source patch, set below
     // Rays leave from just inside the vertex's own surface: off the crease, above the plane.
     const Vec3 origin = p + (nrm + a) * (occlusion.epsilon() * 10);
-    for (const Patch& patch : mesh.patches) {
+    for (size_t source = 0; source < mesh.patches.size(); ++source) {
+      const Patch& patch = mesh.patches[source];
       const auto q = corners(mesh, patch);
       // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
       bool above = false;
@@ -190,7 +218,8 @@ Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
       if (k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0) continue;
       // A crease contribution sits at the receiver itself: nothing can come between.
       const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
-      const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, patch.normal);
+      ignore.back() = uint32_t(source);
+      const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, patch.normal, ignore);
       for (int j = 0; j < 4; ++j) {
         // A triangle's collapsed corner (v3 == v2) adds its shape function to v2.
         if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);
@@ -224,9 +253,10 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
       // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
       // rays between inner points of both patches.
       const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
+      const uint32_t pair[2] = {uint32_t(k), uint32_t(l)};
       auto ray = [&](int a, int b) {
         return occlusion.visible(pointOnPatch(qk, probe[a][0], probe[a][1]) + lift,
-                                 pointOnPatch(ql, probe[b][0], probe[b][1]) + pl.normal * (occlusion.epsilon() * 10));
+                                 pointOnPatch(ql, probe[b][0], probe[b][1]) + pl.normal * (occlusion.epsilon() * 10), pair);
       };
       int seen = 0;
       for (int b = 0; b < 5; ++b) seen += ray(0, b);
@@ -241,6 +271,73 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
     }
   };
   return t;
+}
+
+// The part of each receiver's projected solid angle that no surface covers, front or back: what a
+// uniform sky lights. Two-sided factors of every patch, times their visible fraction.
+std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion) {
+  const std::vector<Vec3> approach = approachDirections(mesh);
+  const VertexPatches around = vertexPatches(mesh);
+  std::vector<double> sky(mesh.positions.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i != range.end(); ++i) {
+      const Vec3 p = mesh.positions[i], nrm = mesh.normals[i];
+      const Vec3 origin = p + (nrm + approach[i]) * (occlusion.epsilon() * 10);
+      double covered = 0;
+      std::vector<uint32_t> ignore(around.of(i).begin(), around.of(i).end());
+      ignore.push_back(0);
+      const auto own = around.of(i);
+      for (size_t source = 0; source < mesh.patches.size(); ++source) {
+        // The vertex's own patches lie on its surface: seen edge-on from the vertex, they cover
+        // nothing (and their limit seen from behind is ill-conditioned on a curved surface).
+        if (std::find(own.begin(), own.end(), uint32_t(source)) != own.end()) continue;
+        const Patch& patch = mesh.patches[source];
+        ignore.back() = uint32_t(source);
+        auto q = corners(mesh, patch);
+        Vec3 normal = patch.normal;
+        if (dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
+          // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
+          std::swap(q[1], q[3]);
+          normal = -normal;
+        }
+        const double f = pointPolygonFactorLimit(p, nrm, approach[i], q.data(), 4);
+        if (!(f > 0)) continue;
+        const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
+        const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, normal, ignore);
+        covered += f * (vis[0] + vis[1] + vis[2] + vis[3]) / 4;
+      }
+      sky[i] = std::max(0.0, 1 - covered);
+    }
+  });
+  return sky;
+}
+
+std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion) {
+  std::vector<double> sky(mesh.patches.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 8), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const Patch& pk = mesh.patches[k];
+      const auto qk = corners(mesh, pk);
+      const Vec3 from = pointOnPatch(qk, 0, 0) + pk.normal * (occlusion.epsilon() * 10);
+      double covered = 0;
+      for (size_t l = 0; l < mesh.patches.size(); ++l) {
+        if (l == k) continue;
+        auto ql = corners(mesh, mesh.patches[l]);
+        if (dot(mesh.patches[l].normal, pointOnPatch(qk, 0, 0) - ql[0]) < 0) {
+          std::swap(ql[1], ql[3]);
+        }
+        const double f = constantPatchFactor(qk, ql);
+        if (!(f > 0)) continue;
+        int seen = 0;
+        const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
+        const uint32_t pair[2] = {uint32_t(k), uint32_t(l)};
+        for (const auto& b : probe) seen += occlusion.visible(from, pointOnPatch(ql, b[0], b[1]), pair);
+        covered += f * seen / 5.0;
+      }
+      sky[k] = std::max(0.0, 1 - covered);
+    }
+  });
+  return sky;
 }
 
 // Jacobi iteration L ← L⁰ + ρ ⊙ (K L): every row independent, so parallel and bit-identical for
@@ -282,6 +379,17 @@ void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::v
   }
 }
 
+// The source term: emission plus, with a sky, the reflected sky light ρ · (uncovered fraction) · sky.
+std::vector<Vec3> withSky(const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
+                          const RadiosityOptions& options, const std::function<std::vector<double>()>& fractions) {
+  if (!(options.sky.x > 0 || options.sky.y > 0 || options.sky.z > 0)) return emission;
+  const std::vector<double> sky = fractions();
+  std::vector<Vec3> source = emission;
+  for (size_t i = 0; i < source.size(); ++i)
+    source[i] += Vec3{reflectance[i].x * options.sky.x, reflectance[i].y * options.sky.y, reflectance[i].z * options.sky.z} * sky[i];
+  return source;
+}
+
 }  // namespace
 
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options) {
@@ -299,7 +407,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       emission[v] = scene.materials[mesh.vertexMaterial[v]].emission;
       reflectance[v] = scene.materials[mesh.vertexMaterial[v]].reflectance;
     }
-    iterate(K, emission, reflectance, options, solution.vertexRadiance, gathered, solution);
+    iterate(K, withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion); }),
+            reflectance, options, solution.vertexRadiance, gathered, solution);
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
       const auto a = shapeFunctionAreas(corners(mesh, patch));
@@ -328,7 +437,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       emission[p] = scene.materials[mesh.patches[p].material].emission;
       reflectance[p] = scene.materials[mesh.patches[p].material].reflectance;
     }
-    iterate(F, emission, reflectance, options, solution.patchRadiance, gathered, solution);
+    iterate(F, withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion); }),
+            reflectance, options, solution.patchRadiance, gathered, solution);
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       const Vec3& rho = reflectance[p];
       solution.emittedPower += kPi * mesh.patches[p].area * (emission[p].x + emission[p].y + emission[p].z) / 3;

@@ -21,6 +21,9 @@ struct RadiosityOptions {
   double relativeResidual = 1e-6;  // stop when ‖L − (L⁰ + ρKL)‖ ≤ this × ‖L⁰‖
   int maxIterations = 10000;
   double kernelTolerance = 1e-6;   // relative accuracy of each bilinear kernel K_ij
+  // Uniform sky radiance lighting an open scene from every direction no surface covers (zero: none,
+  // light that leaves the scene is lost).
+  Vec3 sky{};
   // Past this size the transport rows are not stored but recomputed in every iteration
   // (matrix-free: memory stays O(n), time grows by the iteration count).
   size_t matrixMemoryBytes = size_t(2) << 30;
@@ -37,8 +40,9 @@ struct Solution {
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
   bool matrixFree = false;
   // Power balance in radiance × area × π units, averaged over the three channels: what the
-  // emitters send out and what the surfaces absorb. In a closed scene they agree; the gap is the
-  // light that leaves an open scene (plus discretization error).
+  // emitters send out and what the surfaces absorb of it and its reflections (sky light is not
+  // counted). In a closed scene they agree; the gap is the light that leaves an open scene (plus
+  // discretization error).
   double emittedPower = 0;
   double absorbedPower = 0;
 };

@@ -298,3 +298,43 @@ TEST(Solver, MatrixFreeGivesTheSameBitsAsStoredRows) {
 }
 
 }  // namespace
+
+namespace {
+
+// Under a uniform sky of radiance 1, a receiver whose hemisphere holds only a unit emitter (also
+// of radiance 1) and sky sees radiance 1 everywhere: L = ρ · 1 = 0.5 exactly at every vertex.
+TEST(Sky, TwoPlatesUnderAUniformSkyGiveRhoTimesSky) {
+  for (Method method : {Method::kBilinear, Method::kConstant}) {
+    const Scene scene = importScene((kScenes / "two_plates.gltf").string());
+    const PatchMesh mesh = tessellate(scene);
+    RadiosityOptions o;
+    o.method = method;
+    o.sky = {1, 1, 1};
+    const Solution s = solveRadiosity(scene, mesh, o);
+    int checked = 0;
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      if (scene.materials[mesh.vertexMaterial[v]].emission.x > 0 || method != Method::kBilinear) continue;
+      EXPECT_NEAR(s.vertexRadiance[v].x, 0.5, 1e-9) << v;
+      ++checked;
+    }
+    for (size_t p = 0; p < mesh.patches.size(); ++p) {
+      if (scene.materials[mesh.patches[p].material].emission.x > 0 || method != Method::kConstant) continue;
+      EXPECT_NEAR(s.patchRadiance[p].x, 0.5, 1e-6) << p;
+      ++checked;
+    }
+    EXPECT_EQ(checked, method == Method::kBilinear ? 25 : 16);  // the 4×4 receiver grid
+  }
+}
+
+TEST(Sky, AClosedBoxSeesNoSky) {
+  const Scene scene = importScene((kScenes / "furnace_cube.gltf").string());
+  TessellateOptions t;
+  t.subdivide = 2;
+  const PatchMesh mesh = tessellate(scene, t);
+  RadiosityOptions o;
+  o.sky = {5, 5, 5};
+  const Solution s = solveRadiosity(scene, mesh, o);
+  for (const Vec3& L : s.vertexRadiance) EXPECT_NEAR(L.x, 2.0, 1e-6);
+}
+
+}  // namespace

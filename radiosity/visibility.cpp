@@ -57,25 +57,39 @@ Occlusion::Occlusion(const PatchMesh& mesh) : impl_(std::make_unique<Impl>()) {
 
 Occlusion::~Occlusion() = default;
 
-bool Occlusion::visible(const Vec3& from, const Vec3& to) const {
+bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore) const {
   const Vec3 d = to - from;
   const double dist = length(d);
   if (dist <= 2 * epsilon_) return true;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  RTCRay ray{};
-  ray.org_x = float(from.x);
-  ray.org_y = float(from.y);
-  ray.org_z = float(from.z);
-  ray.dir_x = float(d.x / dist);
-  ray.dir_y = float(d.y / dist);
-  ray.dir_z = float(d.z / dist);
-  ray.tnear = float(epsilon_);
-  ray.tfar = float(dist - epsilon_);
-  ray.mask = 0xFFFFFFFF;
-  ray.flags = 0;
-  rtcOccluded1(impl_->scene, &context, &ray);
-  return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
+  float tnear = float(epsilon_);
+  const float tfar = float(dist - epsilon_);
+  if (ignore.empty()) {
+    RTCRay ray{};
+    ray.org_x = float(from.x); ray.org_y = float(from.y); ray.org_z = float(from.z);
+    ray.dir_x = float(d.x / dist); ray.dir_y = float(d.y / dist); ray.dir_z = float(d.z / dist);
+    ray.tnear = tnear;
+    ray.tfar = tfar;
+    ray.mask = 0xFFFFFFFF;
+    rtcOccluded1(impl_->scene, &context, &ray);
+    return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
+  }
+  // With patches to ignore: walk the hits front to back, stepping over ignored ones.
+  for (int step = 0; step < 16 && tnear < tfar; ++step) {
+    RTCRayHit rh{};
+    rh.ray.org_x = float(from.x); rh.ray.org_y = float(from.y); rh.ray.org_z = float(from.z);
+    rh.ray.dir_x = float(d.x / dist); rh.ray.dir_y = float(d.y / dist); rh.ray.dir_z = float(d.z / dist);
+    rh.ray.tnear = tnear;
+    rh.ray.tfar = tfar;
+    rh.ray.mask = 0xFFFFFFFF;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(impl_->scene, &context, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return true;
+    if (std::find(ignore.begin(), ignore.end(), rh.hit.primID) == ignore.end()) return false;
+    tnear = rh.ray.tfar + float(epsilon_);
+  }
+  return true;
 }
 
 }  // namespace radbake

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <memory>
+#include <span>
 
 #include "tessellate/tessellate.h"
 
@@ -19,8 +20,10 @@ class Occlusion {
   Occlusion& operator=(const Occlusion&) = delete;
 
   // True when nothing lies strictly between `from` and `to` (both ends excluded by a small margin
-  // relative to the scene size, so surfaces at the ends do not count). Thread-safe.
-  bool visible(const Vec3& from, const Vec3& to) const;
+  // relative to the scene size, so surfaces at the ends do not count). Patches listed in `ignore`
+  // do not block: the source patch itself and the patches around the receiving vertex, whose
+  // triangles can stand between a point and its own slightly non-planar (curved) patch. Thread-safe.
+  bool visible(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore = {}) const;
   // A length that is negligible against the scene (1e-7 of its bounding-box diagonal).
   double epsilon() const { return epsilon_; }
 

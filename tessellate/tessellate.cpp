@@ -13,40 +13,41 @@ namespace {
 
 constexpr uint32_t kUnused = UINT32_MAX;
 
-// Welding key: exact position bits (edge points are computed canonically, so coincident points are
-// bit-identical), the normal rounded to 1e-6 (a smooth surface's normals agree to rounding, a crease
-// differs by far more), and the material.
+// Welding: exact position bits (edge points are computed canonically, so coincident points are
+// bit-identical) and the material; among vertices at that point, the first whose normal is within
+// the surface's crease angle. glTF faces weld only with equal normals (to rounding); a smooth
+// curved surface welds across its patch seams.
 struct WeldKey {
   uint64_t px, py, pz;
-  int64_t nx, ny, nz;
   int material;
   bool operator==(const WeldKey&) const = default;
 };
 struct WeldHash {
   size_t operator()(const WeldKey& k) const {
     size_t h = 1469598103934665603ull;
-    for (uint64_t v : {k.px, k.py, k.pz, uint64_t(k.nx), uint64_t(k.ny), uint64_t(k.nz), uint64_t(k.material)})
-      h = (h ^ v) * 1099511628211ull;
+    for (uint64_t v : {k.px, k.py, k.pz, uint64_t(k.material)}) h = (h ^ v) * 1099511628211ull;
     return h;
   }
 };
 
 uint64_t bits(double v) { return std::bit_cast<uint64_t>(v == 0.0 ? 0.0 : v); }  // -0 welds with +0
 
+constexpr double kSameNormalCos = 1 - 1e-10;  // glTF vertices: the same normal up to rounding
+constexpr double kSmoothSeamCos = 0.98480775301220802;  // cos 10°: a curved surface's seams weld below this
+
 struct Welder {
   PatchMesh& mesh;
-  std::unordered_map<WeldKey, uint32_t, WeldHash> index;
+  std::unordered_map<WeldKey, std::vector<uint32_t>, WeldHash> index;
 
-  uint32_t vertex(const Vec3& p, const Vec3& n, int material) {
-    const WeldKey key{bits(p.x), bits(p.y), bits(p.z), std::llround(n.x * 1e6), std::llround(n.y * 1e6),
-                      std::llround(n.z * 1e6), material};
-    auto [it, inserted] = index.try_emplace(key, uint32_t(mesh.positions.size()));
-    if (inserted) {
-      mesh.positions.push_back(p);
-      mesh.normals.push_back(n);
-      mesh.vertexMaterial.push_back(material);
-    }
-    return it->second;
+  uint32_t vertex(const Vec3& p, const Vec3& n, int material, double minCos = kSameNormalCos) {
+    auto& candidates = index[WeldKey{bits(p.x), bits(p.y), bits(p.z), material}];
+    for (uint32_t c : candidates)
+      if (dot(mesh.normals[c], n) >= minCos) return c;
+    candidates.push_back(uint32_t(mesh.positions.size()));
+    mesh.positions.push_back(p);
+    mesh.normals.push_back(n);
+    mesh.vertexMaterial.push_back(material);
+    return candidates.back();
   }
 };
 
@@ -258,6 +259,172 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
   }
 }
 
+// ---- Bezier patches ---------------------------------------------------------------------
+
+// Point of a Bezier curve of control points c[0..d] at t, by de Casteljau (stable, and the same
+// arithmetic on both sides of a shared patch edge).
+Vec3 deCasteljau(std::vector<Vec3> c, double t) {
+  for (size_t r = 1; r < c.size(); ++r)
+    for (size_t k = 0; k + r < c.size(); ++k) c[k] = c[k] * (1 - t) + c[k + 1] * t;
+  return c[0];
+}
+
+struct BezierPoint {
+  Vec3 position, du, dv;
+};
+
+// S(u, v) and its partial derivatives, from the tensor form: rows in v first, then u.
+BezierPoint evaluate(const BezierPatch& patch, double u, double v) {
+  const int nu = patch.degreeU + 1, nv = patch.degreeV + 1;
+  auto curveAndTangent = [](const std::vector<Vec3>& c, double t) {
+    std::vector<Vec3> w = c;
+    for (size_t r = 1; r + 1 < w.size(); ++r)
+      for (size_t k = 0; k + r < w.size(); ++k) w[k] = w[k] * (1 - t) + w[k + 1] * t;
+    // w[0], w[1] are the last two de Casteljau points: tangent = d (w1 − w0)
+    const double d = double(c.size() - 1);
+    if (c.size() == 1) return std::pair{c[0], Vec3{}};
+    return std::pair{w[0] * (1 - t) + w[1] * t, (w[1] - w[0]) * d};
+  };
+  std::vector<Vec3> alongU(nu), alongUDv(nu);
+  for (int i = 0; i < nu; ++i) {
+    std::vector<Vec3> row(patch.control.begin() + i * nv, patch.control.begin() + (i + 1) * nv);
+    auto [p, dp] = curveAndTangent(row, v);
+    alongU[i] = p;
+    alongUDv[i] = dp;
+  }
+  auto [p, du] = curveAndTangent(alongU, u);
+  return {p, du, curveAndTangent(alongUDv, u).first};
+}
+
+// A patch edge's control points in a canonical order (lexicographically smaller end first), so
+// that both patches sharing the edge evaluate its points with identical arithmetic.
+Vec3 edgePoint(std::vector<Vec3> edge, int k, int n) {
+  const Vec3 &a = edge.front(), &b = edge.back();
+  const bool reversed = std::tie(b.x, b.y, b.z) < std::tie(a.x, a.y, a.z);
+  if (reversed) {
+    std::reverse(edge.begin(), edge.end());
+    k = n - k;
+  }
+  return deCasteljau(edge, double(k) / n);
+}
+
+// The surface normal at (u, v); at a collapsed edge (a pole, where ∂S/∂u × ∂S/∂v vanishes) the
+// limit from just inside the patch.
+Vec3 bezierNormal(const BezierPatch& patch, double u, double v) {
+  BezierPoint e = evaluate(patch, u, v);
+  Vec3 n = cross(e.du, e.dv);
+  for (double step = 1e-7; length(n) <= 1e-12 * (1 + dot(e.du, e.du) + dot(e.dv, e.dv)) && step < 0.1; step *= 10) {
+    e = evaluate(patch, u + (u < 0.5 ? step : -step), v + (v < 0.5 ? step : -step));
+    n = cross(e.du, e.dv);
+  }
+  return normalize(n);
+}
+
+double chordError(const BezierPatch& patch, int n) {
+  double worst = 0;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const double u0 = double(i) / n, u1 = double(i + 1) / n, v0 = double(j) / n, v1 = double(j + 1) / n;
+      const Vec3 corners = (evaluate(patch, u0, v0).position + evaluate(patch, u1, v0).position +
+                            evaluate(patch, u1, v1).position + evaluate(patch, u0, v1).position) / 4;
+      const Vec3 edges[4] = {(evaluate(patch, u0, v0).position + evaluate(patch, u1, v0).position) / 2,
+                             (evaluate(patch, u1, v0).position + evaluate(patch, u1, v1).position) / 2,
+                             (evaluate(patch, u1, v1).position + evaluate(patch, u0, v1).position) / 2,
+                             (evaluate(patch, u0, v1).position + evaluate(patch, u0, v0).position) / 2};
+      const Vec3 truth[4] = {evaluate(patch, (u0 + u1) / 2, v0).position, evaluate(patch, u1, (v0 + v1) / 2).position,
+                             evaluate(patch, (u0 + u1) / 2, v1).position, evaluate(patch, u0, (v0 + v1) / 2).position};
+      worst = std::max(worst, length(evaluate(patch, (u0 + u1) / 2, (v0 + v1) / 2).position - corners));
+      for (int k = 0; k < 4; ++k) worst = std::max(worst, length(truth[k] - edges[k]));
+    }
+  return worst;
+}
+
+// One uniform rate for all patches of the surface, so shared edges get the same points.
+int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions& options) {
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const BezierPatch& p : patches)
+    for (const Vec3& c : p.control) {
+      lo = {std::min(lo.x, c.x), std::min(lo.y, c.y), std::min(lo.z, c.z)};
+      hi = {std::max(hi.x, c.x), std::max(hi.y, c.y), std::max(hi.z, c.z)};
+    }
+  const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * length(hi - lo);
+  constexpr int kMaxRate = 256;
+  int rate = std::max(1, options.subdivide);
+  for (const BezierPatch& p : patches) {
+    while (rate < kMaxRate && chordError(p, rate) > chord) rate = std::min(kMaxRate, rate * 2);
+    if (options.maxEdgeLength > 0)
+      while (rate < kMaxRate) {
+        double longest = 0;
+        for (int k = 0; k < rate; ++k)
+          for (int l = 0; l <= rate; ++l) {
+            longest = std::max(longest, length(evaluate(p, double(k + 1) / rate, double(l) / rate).position -
+                                               evaluate(p, double(k) / rate, double(l) / rate).position));
+            longest = std::max(longest, length(evaluate(p, double(l) / rate, double(k + 1) / rate).position -
+                                               evaluate(p, double(l) / rate, double(k) / rate).position));
+          }
+        if (longest <= options.maxEdgeLength) break;
+        ++rate;
+      }
+  }
+  return rate;
+}
+
+void tessellateBezier(const Scene& scene, const TessellateOptions& options, Welder& welder, PatchMesh& mesh) {
+  if (scene.bezierPatches.empty()) return;
+  const int n = bezierRate(scene.bezierPatches, options);
+  mesh.curvedRate = n;
+  GeneratedSurface surface;
+  surface.material = scene.bezierPatches.front().material;
+  std::unordered_map<uint32_t, uint32_t> outputOf;
+  std::vector<uint32_t> grid((n + 1) * (n + 1));
+  for (const BezierPatch& patch : scene.bezierPatches) {
+    const int nu = patch.degreeU + 1, nv = patch.degreeV + 1;
+    auto column = [&](int i) { return std::vector<Vec3>(patch.control.begin() + i * nv, patch.control.begin() + (i + 1) * nv); };
+    auto row = [&](int j) {
+      std::vector<Vec3> r(nu);
+      for (int i = 0; i < nu; ++i) r[i] = patch.control[i * nv + j];
+      return r;
+    };
+    const std::vector<Vec3> edgeU0 = column(0), edgeU1 = column(nu - 1), edgeV0 = row(0), edgeV1 = row(nv - 1);
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const double u = double(i) / n, v = double(j) / n;
+        Vec3 p;
+        if (i == 0) p = edgePoint(edgeU0, j, n);
+        else if (i == n) p = edgePoint(edgeU1, j, n);
+        else if (j == 0) p = edgePoint(edgeV0, i, n);
+        else if (j == n) p = edgePoint(edgeV1, i, n);
+        else p = evaluate(patch, u, v).position;
+        grid[j * (n + 1) + i] = welder.vertex(p, bezierNormal(patch, u, v), patch.material, kSmoothSeamCos);
+      }
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        std::array<uint32_t, 4> q{grid[j * (n + 1) + i], grid[j * (n + 1) + i + 1], grid[(j + 1) * (n + 1) + i + 1],
+                                  grid[(j + 1) * (n + 1) + i]};
+        // A collapsed edge (a pole) makes the quad a triangle: rotate so the repeat sits at v2 == v3.
+        int distinct = 0;
+        std::array<uint32_t, 4> unique{};
+        for (int k = 0; k < 4; ++k)
+          if (q[k] != q[(k + 3) % 4]) unique[distinct++] = q[k];
+        if (distinct < 3) continue;  // a degenerate sliver at a pole
+        if (distinct == 3) q = {unique[0], unique[1], unique[2], unique[2]};
+        std::array<Vec3, 4> c{mesh.positions[q[0]], mesh.positions[q[1]], mesh.positions[q[2]], mesh.positions[q[3]]};
+        const Vec3 area2 = cross(c[2] - c[0], c[3] - c[1]);
+        if (!(length(area2) > 0)) continue;
+        const Vec3 normal = normalize(area2);
+        const Vec3 centre = (c[0] + c[1] + c[2] + c[3]) / 4;
+        const double diagonal = std::max(length(c[2] - c[0]), length(c[3] - c[1]));
+        for (const Vec3& x : c) mesh.worstNonPlanarity = std::max(mesh.worstNonPlanarity, std::abs(dot(x - centre, normal)) / diagonal);
+        mesh.patches.push_back({q, patch.material, -1, normal, 0.5 * length(area2)});
+        for (uint32_t v : q)
+          if (outputOf.try_emplace(v, uint32_t(surface.patchVertex.size())).second) surface.patchVertex.push_back(v);
+        surface.triangles.push_back({outputOf[q[0]], outputOf[q[1]], outputOf[q[2]]});
+        if (q[3] != q[2]) surface.triangles.push_back({outputOf[q[0]], outputOf[q[2]], outputOf[q[3]]});
+      }
+  }
+  mesh.generated.push_back(std::move(surface));
+}
+
 }  // namespace
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
@@ -266,6 +433,7 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   Welder welder{mesh, {}};
   for (size_t p = 0; p < scene.primitives.size(); ++p)
     tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, welder, mesh);
+  tessellateBezier(scene, options, welder, mesh);
   return mesh;
 }
 

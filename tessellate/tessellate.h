@@ -40,18 +40,33 @@ struct PrimitivePatches {
   std::vector<uint32_t> patch;                   // patch of each output vertex (flatPatches only)
 };
 
+// Geometry made from curved input that has no glTF primitive to carry it (a .bpt file): the
+// exporter writes it as a new mesh. Its output vertices are patch vertices.
+struct GeneratedSurface {
+  int material = 0;
+  std::vector<uint32_t> patchVertex;
+  std::vector<std::array<uint32_t, 3>> triangles;
+};
+
 struct PatchMesh {
   std::vector<Vec3> positions;  // welded patch vertices
   std::vector<Vec3> normals;    // unit, the receiving orientation of each vertex
   std::vector<int> vertexMaterial;
   std::vector<Patch> patches;
   std::vector<PrimitivePatches> primitives;  // parallel to Scene::primitives
+  std::vector<GeneratedSurface> generated;   // from Scene::bezierPatches
+  int curvedRate = 0;             // quads per patch edge on curved surfaces
+  double worstNonPlanarity = 0;   // largest corner distance from a patch's plane over its diagonal
 };
 
 struct TessellateOptions {
   int subdivide = 1;         // split every face into subdivide × subdivide patches
   double maxEdgeLength = 0;  // > 0: per primitive, the smallest subdivision with every patch edge ≤ this
   bool flatPatches = false;  // output vertices per patch (to show one value per patch, flat-shaded)
+  // Curved surfaces: the smallest uniform rate with every patch within this distance of the true
+  // surface (chord error), at least `subdivide`, and edges within maxEdgeLength. 0: 1/1000 of the
+  // surface's size.
+  double maxChord = 0;
 };
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options = {});

@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
+#include <tuple>
 
 #include "tessellate/tessellate.h"
 
@@ -62,6 +64,53 @@ TEST(Tessellate, MaxEdgeBoundsEveryPatchEdge) {
   for (const Patch& p : mesh.patches)
     for (int e = 0; e < 4; ++e)
       EXPECT_LE(length(mesh.positions[p.v[(e + 1) % 4]] - mesh.positions[p.v[e]]), 0.1 * (1 + 1e-9));
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Tessellate, TeapotIsCrackFree) {
+  // Newell's 32 Bezier patches: after welding, two patch vertices share a position only where two
+  // different surfaces touch at an angle (the handle's end meets the body at one point, 66°
+  // apart); an unwelded smooth seam would leave duplicates with equal normals. Patches are nearly
+  // planar.
+  const Scene scene = importScene((kScenes / "teapot.bpt").string());
+  ASSERT_EQ(scene.bezierPatches.size(), 32u);
+  double previousNonPlanarity = 1;
+  for (int rate : {2, 4, 8}) {
+    TessellateOptions o;
+    o.subdivide = rate;
+    o.maxChord = 1e9;  // the rate alone
+    const PatchMesh mesh = tessellate(scene, o);
+    EXPECT_EQ(mesh.curvedRate, rate);
+    std::map<std::tuple<double, double, double>, std::vector<size_t>> seen;
+    for (size_t i = 0; i < mesh.positions.size(); ++i) seen[{mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z}].push_back(i);
+    int duplicated = 0;
+    for (const auto& [p, group] : seen) {
+      if (group.size() == 1) continue;
+      ++duplicated;
+      for (size_t a = 0; a < group.size(); ++a)
+        for (size_t b = a + 1; b < group.size(); ++b)
+          EXPECT_LT(dot(mesh.normals[group[a]], mesh.normals[group[b]]), std::cos(10 * 3.14159265358979 / 180))
+              << "unwelded smooth seam at " << std::get<0>(p) << " " << std::get<1>(p) << " " << std::get<2>(p);
+    }
+    EXPECT_LE(duplicated, 1) << "rate " << rate;
+    // Patch seams: each interior seam point is shared, so the vertex count is far below 32·(n+1)².
+    EXPECT_LT(mesh.positions.size(), size_t(32 * (rate + 1) * (rate + 1)));
+    ASSERT_EQ(mesh.generated.size(), 1u);
+    // Non-planarity (corner distance from the patch plane over its diagonal) falls with the rate.
+    EXPECT_LT(mesh.worstNonPlanarity, previousNonPlanarity);
+    previousNonPlanarity = mesh.worstNonPlanarity;
+  }
+}
+
+TEST(Tessellate, CurvedRateFollowsTheChordTolerance) {
+  const Scene scene = importScene((kScenes / "teapot.bpt").string());
+  TessellateOptions coarse, fine;
+  coarse.maxChord = 0.05;
+  fine.maxChord = 0.002;
+  EXPECT_LT(tessellate(scene, coarse).curvedRate, tessellate(scene, fine).curvedRate);
 }
 
 }  // namespace

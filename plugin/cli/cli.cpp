@@ -74,7 +74,6 @@ std::string unbuiltOption(const Options& o) {
   if (!o.lightmap.empty()) return "--lightmap (lightmap output is not built yet)";
   if (o.exposure || !o.view.empty() || !o.display.empty() || !o.ocioConfig.empty())
     return "--exposure/--view/--display/--ocio-config (OpenColorIO display shaping is not built yet)";
-  if (o.sky) return "--sky (sky lighting is not built yet)";
   return "";
 }
 
@@ -84,14 +83,22 @@ std::string lowerExtension(const std::string& path) {
   return ext;
 }
 
-void checkInputKind(const std::string& input) {
-  const std::string ext = lowerExtension(input);
-  if (ext == ".bpt")
-    throw Error(ExitCode::kUnsupported, std::filesystem::path(input).filename().string() +
-                                            ": Bezier patch files (.bpt) are not supported yet");
-}
 
 nlohmann::json vec3Json(const Vec3& v) { return {v.x, v.y, v.z}; }
+
+// --sky R,G,B (or one number for grey): non-negative finite radiance.
+Vec3 parseSky(const std::string& text) {
+  std::string spaced = text;
+  std::replace(spaced.begin(), spaced.end(), ',', ' ');
+  std::istringstream fields(spaced);
+  std::vector<double> v;
+  double x;
+  while (fields >> x) v.push_back(x);
+  const bool ok = fields.eof() && (v.size() == 1 || v.size() == 3) &&
+                  std::all_of(v.begin(), v.end(), [](double c) { return std::isfinite(c) && c >= 0; });
+  if (!ok) throw Error(ExitCode::kUsage, "radbake: --sky " + text + ": expected R,G,B (three non-negative numbers)");
+  return v.size() == 1 ? Vec3{v[0], v[0], v[0]} : Vec3{v[0], v[1], v[2]};
+}
 
 // Probe points: CSV with a header, x,y,z,nx,ny,nz per line (world space).
 std::vector<std::pair<Vec3, Vec3>> readProbes(const std::string& path) {
@@ -186,7 +193,6 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
     throw Error(ExitCode::kUsage, "radbake: output " + options.output + " must end in .glb or .gltf");
   if (!options.report.empty() && lowerExtension(options.report) != ".json")
     throw Error(ExitCode::kUsage, "radbake: --report " + options.report + " must end in .json");
-  checkInputKind(options.input);
   if (options.probe.empty() != options.probeOut.empty())
     throw Error(ExitCode::kUsage, "radbake: --probe and --probe-out go together");
   const auto probes = options.probe.empty() ? std::vector<std::pair<Vec3, Vec3>>{} : readProbes(options.probe);
@@ -206,6 +212,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   TessellateOptions tessellateOptions;
   tessellateOptions.subdivide = options.subdivide;
   tessellateOptions.maxEdgeLength = options.maxEdge;
+  tessellateOptions.maxChord = options.maxChord;
   tessellateOptions.flatPatches = options.method == "constant";
   const PatchMesh mesh = tessellate(scene, tessellateOptions);
   const auto t2 = Clock::now();
@@ -213,6 +220,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   RadiosityOptions radiosityOptions;
   radiosityOptions.relativeResidual = options.tolerance;
   radiosityOptions.method = options.method == "constant" ? Method::kConstant : Method::kBilinear;
+  if (options.sky) radiosityOptions.sky = parseSky(*options.sky);
   radiosityOptions.progress = [&](double f) { progress.report(f); };
   const Solution solution = solveRadiosity(scene, mesh, radiosityOptions);
   const auto t3 = Clock::now();
@@ -228,10 +236,11 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (!options.report.empty()) {
     nlohmann::json report{
         {"input", options.input}, {"output", options.output}, {"method", options.method},
-        {"subdivide", options.subdivide}, {"maxEdge", options.maxEdge},
+        {"subdivide", options.subdivide}, {"maxEdge", options.maxEdge}, {"maxChord", options.maxChord},
         {"counts", {{"primitiveInstances", scene.primitives.size()}, {"patches", mesh.patches.size()},
                     {"vertices", mesh.positions.size()}, {"writtenVertices", summary.writtenVertices},
-                    {"clonedMeshes", summary.clonedMeshes}}},
+                    {"clonedMeshes", summary.clonedMeshes}, {"curvedRate", mesh.curvedRate},
+                    {"worstNonPlanarity", mesh.worstNonPlanarity}}},
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree}}},
@@ -267,6 +276,8 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--subdivide", o.subdivide, "split every input face into N×N patches (default 1)")
       ->check(CLI::Range(1, 4096));
   bakeCmd->add_option("--max-edge", o.maxEdge, "refine until no patch edge is longer than LENGTH (scene units)")
+      ->check(CLI::PositiveNumber);
+  bakeCmd->add_option("--max-chord", o.maxChord, "curved surfaces: largest distance between a patch and the surface")
       ->check(CLI::PositiveNumber);
   bakeCmd->add_option("--lightmap", o.lightmap, "also write an HDR lightmap atlas (.exr)");
   bakeCmd->add_option("--exposure", o.exposure, "exposure in EV for COLOR_0 and previews");
@@ -324,8 +335,7 @@ int run(const Options& options, std::ostream& out, std::ostream& err) {
         out << "radbake " << RADBAKE_VERSION << "\n";
         return 0;
       case Command::kInfo: {
-        checkInputKind(options.input);
-        ImportOptions importOptions;
+              ImportOptions importOptions;
         importOptions.requireSupportedExtensions = false;
         printInfo(importScene(options.input, importOptions), options, out);
         return 0;

@@ -19,6 +19,7 @@ struct Options {
   std::string method = "bilinear";
   int subdivide = 1;
   double maxEdge = 0;
+  double maxChord = 0;
   std::string lightmap;
   std::optional<double> exposure;
   std::string view, display, ocioConfig;
