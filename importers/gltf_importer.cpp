@@ -533,13 +533,45 @@ struct Importer {
     const Matrix4 world = multiply(parentWorld, localMatrix(node));
     if (node.mesh >= 0)
       for (size_t p = 0; p < m.meshes[node.mesh].primitives.size(); ++p) addPrimitive(nodeIndex, node.mesh, int(p), world);
+    if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end()) addLight(nodeIndex, it->second, world);
     for (int child : node.children) visit(child, world);
+  }
+
+  void addLight(int nodeIndex, const tinygltf::Value& ext, const Matrix4& world) {
+    const std::string what = "node " + std::to_string(nodeIndex) + " KHR_lights_punctual";
+    const tinygltf::Value& index = ext.Get("light");
+    if (!index.IsNumber() && !index.IsInt()) ctx.invalid(what + ": \"light\" must be an index");
+    const int li = index.IsInt() ? index.Get<int>() : int(index.GetNumberAsDouble());
+    if (li < 0 || li >= int(m.lights.size()))
+      ctx.invalid(what + ": light " + std::to_string(li) + " does not exist (the file has " + std::to_string(m.lights.size()) + ")");
+    const tinygltf::Light& light = m.lights[li];
+    PunctualLight out;
+    out.name = light.name.empty() ? "light " + std::to_string(li) : light.name;
+    out.node = nodeIndex;
+    if (light.type == "point") out.type = PunctualLight::Type::kPoint;
+    else if (light.type == "spot") out.type = PunctualLight::Type::kSpot;
+    else if (light.type == "directional") out.type = PunctualLight::Type::kDirectional;
+    else ctx.invalid("light " + std::to_string(li) + ": unknown type \"" + light.type + "\"");
+    Vec3 color{1, 1, 1};
+    if (light.color.size() == 3) color = {light.color[0], light.color[1], light.color[2]};
+    if (!isFinite(color) || !std::isfinite(light.intensity) || light.intensity < 0 || color.x < 0 || color.y < 0 || color.z < 0)
+      ctx.invalid("light " + std::to_string(li) + ": color and intensity must be finite and non-negative");
+    out.intensity = color * light.intensity;
+    out.range = light.range > 0 && std::isfinite(light.range) ? light.range : 0;
+    out.innerCone = light.spot.innerConeAngle;
+    out.outerCone = light.spot.outerConeAngle;
+    out.position = transformPoint(world, {0, 0, 0});
+    // The light shines down its local −z; directions transform by the upper 3×3.
+    out.direction = normalize(Vec3{-world[8], -world[9], -world[10]});
+    scene.lights.push_back(out);
   }
 };
 
 }  // namespace
 
 bool Scene::hasEmitter() const {
+  for (const PunctualLight& light : lights)
+    if (light.intensity.x > 0 || light.intensity.y > 0 || light.intensity.z > 0) return true;
   for (const Primitive& p : primitives) {
     const Vec3& e = materials[p.material].emission;
     if (!p.triangles.empty() && (e.x > 0 || e.y > 0 || e.z > 0)) return true;

@@ -57,6 +57,19 @@ struct Primitive {
   std::vector<std::array<uint32_t, 3>> triangles;    // indices into positions
 };
 
+// A KHR_lights_punctual light placed by a node, in glTF's photometric units.
+struct PunctualLight {
+  enum class Type { kPoint, kSpot, kDirectional };
+  Type type = Type::kPoint;
+  std::string name;
+  int node = -1;
+  Vec3 position;      // world space (point, spot)
+  Vec3 direction;     // world space, unit: where the light shines (spot, directional): local −z
+  Vec3 intensity;     // color × intensity: candela (point, spot) or lux (directional)
+  double range = 0;   // 0: unlimited
+  double innerCone = 0, outerCone = 0.7853981633974483;  // spot cone half-angles (radians)
+};
+
 // A tensor-product Bezier patch (.bpt): S(u,v) = Σ_i Σ_j B_i(u) B_j(v) P[i][j], u, v ∈ [0,1].
 struct BezierPatch {
   int degreeU = 3, degreeV = 3;
@@ -77,6 +90,7 @@ struct Scene {
   std::vector<Material> materials;    // glTF materials in order, then the default material
   std::vector<Primitive> primitives;  // every triangle primitive instance of the default scene
   std::vector<BezierPatch> bezierPatches;  // curved input (.bpt), one smooth surface
+  std::vector<PunctualLight> lights;       // KHR_lights_punctual lights of the default scene
   std::vector<std::string> warnings;  // each names the file and the element
   SceneCounts counts;                 // what the document holds (for `radbake info`)
   std::vector<std::string> extensionsUsed;

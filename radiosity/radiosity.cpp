@@ -379,6 +379,106 @@ void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::v
   }
 }
 
+// Irradiance at x (normal n) from the punctual lights, shadowed (KHR_lights_punctual: intensity
+// in candela for point and spot lights, illuminance in lux for directional ones; the spec's spot
+// cone and range falloff).
+Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Occlusion& occlusion, double sceneSize,
+                      const Vec3& origin, const Vec3& x, const Vec3& n, std::span<const uint32_t> ignore) {
+  Vec3 e{};
+  for (const PunctualLight& light : lights) {
+    Vec3 toLight;
+    double falloff = 1;
+    if (light.type == PunctualLight::Type::kDirectional) {
+      toLight = -light.direction;
+    } else {
+      const Vec3 d = light.position - x;
+      const double r2 = dot(d, d);
+      if (!(r2 > 0)) continue;
+      toLight = d / std::sqrt(r2);
+      falloff = 1 / r2;
+      if (light.range > 0) {
+        const double q = r2 * r2 / std::pow(light.range, 4);
+        falloff *= std::pow(std::clamp(1 - q, 0.0, 1.0), 2);
+      }
+      if (light.type == PunctualLight::Type::kSpot) {
+        const double cosOuter = std::cos(light.outerCone), cosInner = std::cos(light.innerCone);
+        const double scale = 1 / std::max(0.001, cosInner - cosOuter);
+        const double t = std::clamp((dot(-toLight, light.direction) - cosOuter) * scale, 0.0, 1.0);
+        falloff *= t * t;
+      }
+    }
+    const double cosine = dot(n, toLight);
+    if (!(cosine > 0) || !(falloff > 0)) continue;
+    const Vec3 target = light.type == PunctualLight::Type::kDirectional ? origin + toLight * (10 * sceneSize) : light.position;
+    if (!occlusion.visible(origin, target, ignore)) continue;
+    e += light.intensity * (cosine * falloff);
+  }
+  return e;
+}
+
+double sceneSize(const PatchMesh& mesh) {
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const Vec3& p : mesh.positions) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  return mesh.positions.empty() ? 1 : length(hi - lo);
+}
+
+// Direct light from the punctual lights, as the radiance it adds: ρ E / π per unknown.
+std::vector<Vec3> bilinearDirectLight(const Scene& scene, const PatchMesh& mesh, const Occlusion& occlusion) {
+  std::vector<Vec3> e(mesh.positions.size());
+  if (scene.lights.empty()) return e;
+  const std::vector<Vec3> approach = approachDirections(mesh);
+  const VertexPatches around = vertexPatches(mesh);
+  const double size = sceneSize(mesh);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, e.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i != range.end(); ++i) {
+      const Vec3 origin = mesh.positions[i] + (mesh.normals[i] + approach[i]) * (occlusion.epsilon() * 10);
+      e[i] = directIrradiance(scene.lights, occlusion, size, origin, mesh.positions[i], mesh.normals[i], around.of(i));
+    }
+  });
+  return e;
+}
+
+std::vector<Vec3> constantDirectLight(const Scene& scene, const PatchMesh& mesh, const Occlusion& occlusion) {
+  std::vector<Vec3> e(mesh.patches.size());
+  if (scene.lights.empty()) return e;
+  const double size = sceneSize(mesh);
+  constexpr double kNode[3] = {-0.7745966692414834, 0, 0.7745966692414834};
+  constexpr double kWeight[3] = {5.0 / 9, 8.0 / 9, 5.0 / 9};
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, e.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const Patch& patch = mesh.patches[k];
+      const auto q = corners(mesh, patch);
+      const uint32_t self[1] = {uint32_t(k)};
+      Vec3 sum{};
+      double area = 0;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          const double s = kNode[a], t = kNode[b];
+          const Vec3 ds = (q[1] - q[0]) * (1 - t) / 4 + (q[2] - q[3]) * (1 + t) / 4;
+          const Vec3 dt = (q[3] - q[0]) * (1 - s) / 4 + (q[2] - q[1]) * (1 + s) / 4;
+          const double w = kWeight[a] * kWeight[b] * length(cross(ds, dt));
+          const Vec3 x = pointOnPatch(q, s, t);
+          sum += directIrradiance(scene.lights, occlusion, size, x + patch.normal * (occlusion.epsilon() * 10), x,
+                                  patch.normal, self) * w;
+          area += w;
+        }
+      e[k] = area > 0 ? sum / area : Vec3{};
+    }
+  });
+  return e;
+}
+
+std::vector<Vec3> withDirectLight(std::vector<Vec3> source, const std::vector<Vec3>& reflectance,
+                                  const std::vector<Vec3>& irradiance) {
+  for (size_t i = 0; i < source.size(); ++i)
+    source[i] += Vec3{reflectance[i].x * irradiance[i].x, reflectance[i].y * irradiance[i].y,
+                      reflectance[i].z * irradiance[i].z} / kPi;
+  return source;
+}
+
 // The source term: emission plus, with a sky, the reflected sky light ρ · (uncovered fraction) · sky.
 std::vector<Vec3> withSky(const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
                           const RadiosityOptions& options, const std::function<std::vector<double>()>& fractions) {
@@ -407,8 +507,10 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       emission[v] = scene.materials[mesh.vertexMaterial[v]].emission;
       reflectance[v] = scene.materials[mesh.vertexMaterial[v]].reflectance;
     }
-    iterate(K, withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion); }),
-            reflectance, options, solution.vertexRadiance, gathered, solution);
+    const std::vector<Vec3> source =
+        withDirectLight(withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion); }),
+                        reflectance, bilinearDirectLight(scene, mesh, occlusion));
+    iterate(K, source, reflectance, options, solution.vertexRadiance, gathered, solution);
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
       const auto a = shapeFunctionAreas(corners(mesh, patch));
@@ -437,8 +539,10 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       emission[p] = scene.materials[mesh.patches[p].material].emission;
       reflectance[p] = scene.materials[mesh.patches[p].material].reflectance;
     }
-    iterate(F, withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion); }),
-            reflectance, options, solution.patchRadiance, gathered, solution);
+    const std::vector<Vec3> source =
+        withDirectLight(withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion); }),
+                        reflectance, constantDirectLight(scene, mesh, occlusion));
+    iterate(F, source, reflectance, options, solution.patchRadiance, gathered, solution);
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       const Vec3& rho = reflectance[p];
       solution.emittedPower += kPi * mesh.patches[p].area * (emission[p].x + emission[p].y + emission[p].z) / 3;

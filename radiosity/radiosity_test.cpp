@@ -338,3 +338,29 @@ TEST(Sky, AClosedBoxSeesNoSky) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(DoubleSided, AnOutwardFacingBoxIsAFurnaceInside) {
+  // A closed box whose faces point outward, with a double-sided emitting material (ρ 0.5, L⁰ 1):
+  // inside, the back sides form a furnace (L = 2 everywhere); outside, the fronts see nothing
+  // (L = L⁰ = 1). Without doubleSided the inside would not be lit at all.
+  Scene scene;
+  scene.materials = {{"glow", -1, {0.5, 0.5, 0.5}, {1, 1, 1}, true}};
+  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, false, 0));
+  TessellateOptions t;
+  t.subdivide = 2;
+  const PatchMesh mesh = tessellate(scene, t);
+  const Solution s = solveRadiosity(scene, mesh);
+  int inside = 0, outside = 0;
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Vec3 centre{0.5, 0.5, 0.5};
+    const bool facesIn = dot(mesh.normals[v], centre - mesh.positions[v]) > 0;
+    EXPECT_NEAR(s.vertexRadiance[v].x, facesIn ? 2.0 : 1.0, 1e-6);
+    (facesIn ? inside : outside)++;
+  }
+  EXPECT_EQ(inside, 6 * 9);
+  EXPECT_EQ(outside, 6 * 9);
+}
+
+}  // namespace

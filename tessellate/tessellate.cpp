@@ -425,14 +425,33 @@ void tessellateBezier(const Scene& scene, const TessellateOptions& options, Weld
   mesh.generated.push_back(std::move(surface));
 }
 
+// A double-sided material lights both sides: every patch gets a mirrored twin on its own vertices
+// (normals reversed, so they never weld with the front). The exporter writes the front side.
+void addBackSides(PatchMesh& mesh, Welder& welder, size_t firstPatch) {
+  const size_t end = mesh.patches.size();
+  for (size_t i = firstPatch; i < end; ++i) {
+    Patch back = mesh.patches[i];
+    std::array<uint32_t, 4> v;
+    for (int k = 0; k < 4; ++k)
+      v[k] = welder.vertex(mesh.positions[back.v[k]], -mesh.normals[back.v[k]], back.material);
+    back.v = back.v[2] == back.v[3] ? std::array<uint32_t, 4>{v[0], v[2], v[1], v[1]} : std::array<uint32_t, 4>{v[0], v[3], v[2], v[1]};
+    back.normal = -back.normal;
+    back.backSide = true;
+    mesh.patches.push_back(back);
+  }
+}
+
 }  // namespace
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   PatchMesh mesh;
   mesh.primitives.resize(scene.primitives.size());
   Welder welder{mesh, {}};
-  for (size_t p = 0; p < scene.primitives.size(); ++p)
+  for (size_t p = 0; p < scene.primitives.size(); ++p) {
+    const size_t first = mesh.patches.size();
     tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, welder, mesh);
+    if (scene.materials[scene.primitives[p].material].doubleSided) addBackSides(mesh, welder, first);
+  }
   tessellateBezier(scene, options, welder, mesh);
   return mesh;
 }

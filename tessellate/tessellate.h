@@ -21,6 +21,7 @@ struct Patch {
   int primitive = 0;          // index into Scene::primitives
   Vec3 normal;                // unit geometric normal (front side)
   double area = 0;
+  bool backSide = false;      // the mirrored twin of a double-sided patch
 };
 
 // Where an output vertex lies on its source primitive: a triangle and barycentric weights.

@@ -8,6 +8,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -419,6 +420,93 @@ std::string base64(const std::vector<float>& values) {
     out += i + 2 < n ? kAlphabet[v & 63] : '=';
   }
   return out;
+}
+
+// A white plate (ρ 0.5, 2×2 at y = 0, facing up) under one KHR_lights_punctual light placed by a
+// node at `translation` with `rotation` (quaternion), as a glTF text.
+// With `occluder`, a black 0.2×0.2 card at y = 1 over the plate's centre casts a shadow.
+std::string litPlateGltf(const std::string& lightJson, const std::string& translation, const std::string& rotation = "0,0,0,1",
+                         bool occluder = false) {
+  const std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, 1, 1, 0, -1, -1, 0, -1,
+                                -0.1f, 1, 0.1f, 0.1f, 1, 0.1f, 0.1f, 1, -0.1f, -0.1f, 1, 0.1f, 0.1f, 1, -0.1f, -0.1f, 1, -0.1f};
+  return R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
+    "extensions":{"KHR_lights_punctual":{"lights":[)" + lightJson + R"(]}},
+    "scene":0,"scenes":[{"nodes":[0,1)" + (occluder ? ",2" : "") + R"(]}],
+    "nodes":[{"mesh":0},{"translation":[)" + translation + R"(],"rotation":[)" + rotation + R"(],
+              "extensions":{"KHR_lights_punctual":{"light":0}}},{"mesh":1}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]},
+              {"primitives":[{"attributes":{"POSITION":1},"material":1}]}],
+    "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0}},
+                 {"pbrMetallicRoughness":{"baseColorFactor":[0,0,0,1],"metallicFactor":0}}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":6,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
+                 {"bufferView":0,"byteOffset":72,"componentType":5126,"count":6,"type":"VEC3",
+                  "min":[-0.1,1,-0.1],"max":[0.1,1,0.1]}],
+    "bufferViews":[{"buffer":0,"byteLength":144}],
+    "buffers":[{"byteLength":144,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+}
+
+// Bakes `gltf` with --subdivide 2 (a vertex at the plate's centre) and probes the listed points
+// (facing up); returns the red channel at each.
+std::vector<double> probePlate(const std::string& gltf, const std::vector<std::pair<double, double>>& xz) {
+  const fs::path dir = tempDir(), in = dir / "plate.gltf", probes = dir / "plate_probes.csv", values = dir / "plate_values.csv";
+  std::ofstream(in) << gltf;
+  {
+    std::ofstream out(probes);
+    out << "x,y,z,nx,ny,nz\n";
+    for (const auto& [x, z] : xz) out << x << ",0," << z << ",0,1,0\n";
+  }
+  const RunResult r = radbake({"bake", in.string(), "-o", (dir / "plate.glb").string(), "--subdivide", "2", "--probe",
+                               probes.string(), "--probe-out", values.string(), "-q"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  std::ifstream in2(values);
+  std::string line;
+  std::getline(in2, line);
+  std::vector<double> red;
+  while (std::getline(in2, line)) {
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream f(line);
+    double x, y, z, rr;
+    f >> x >> y >> z >> rr;
+    red.push_back(rr);
+  }
+  return red;
+}
+
+constexpr double kPi = 3.14159265358979323846;
+
+TEST(Lights, PointLightAboveAWhitePlate) {
+  // I = 10 cd at d = 2 above the centre: L = ρ I cosθ / (π r²); at the foot point ρ I / (π d²).
+  const auto L = probePlate(litPlateGltf(R"({"type":"point","intensity":10})", "0,2,0"), {{0, 0}, {1, 1}, {1, 0}});
+  ASSERT_EQ(L.size(), 3u);
+  EXPECT_NEAR(L[0], 0.5 * 10 / (kPi * 4), 1e-12);
+  EXPECT_NEAR(L[1], 0.5 * 10 * (2 / std::sqrt(6.0)) / (kPi * 6), 1e-12);
+  EXPECT_NEAR(L[2], 0.5 * 10 * (2 / std::sqrt(5.0)) / (kPi * 5), 1e-12);
+}
+
+TEST(Lights, ShadowsBlockDirectLight) {
+  const auto L = probePlate(litPlateGltf(R"({"type":"point","intensity":10})", "0,2,0", "0,0,0,1", true), {{0, 0}, {1, 1}});
+  EXPECT_EQ(L[0], 0.0);  // under the card
+  EXPECT_NEAR(L[1], 0.5 * 10 * (2 / std::sqrt(6.0)) / (kPi * 6), 1e-12);
+}
+
+TEST(Lights, DirectionalLightStraightDown) {
+  // 3 lux straight down (the node turns local −z to −y: 90° about x): L = ρ E / π everywhere.
+  const double h = std::sqrt(0.5);
+  const auto L = probePlate(litPlateGltf(R"({"type":"directional","intensity":3})", "0,5,0",
+                                         "-" + std::to_string(h) + ",0,0," + std::to_string(h)),
+                            {{0, 0}, {1, 1}, {-1, 0}});
+  for (double v : L) EXPECT_NEAR(v, 0.5 * 3 / kPi, 1e-6);
+}
+
+TEST(Lights, SpotLightCone) {
+  // A spot pointing down from 2 m: inside the inner cone like a point light, outside the outer
+  // cone dark. Inner 10°, outer 20°: the centre is lit, a corner (35° off axis) is not.
+  const double h = std::sqrt(0.5);
+  const auto L = probePlate(litPlateGltf(R"({"type":"spot","intensity":10,"spot":{"innerConeAngle":0.1745,"outerConeAngle":0.349}})",
+                                         "0,2,0", "-" + std::to_string(h) + ",0,0," + std::to_string(h)),
+                            {{0, 0}, {1, 1}});
+  EXPECT_NEAR(L[0], 0.5 * 10 / (kPi * 4), 1e-6);
+  EXPECT_EQ(L[1], 0.0);
 }
 
 TEST(BadInput, AccessorOutOfRange) {

@@ -147,6 +147,7 @@ void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
                      {"cameras", c.cameras}, {"lights", c.lights}, {"skins", c.skins},
                      {"animations", c.animations}, {"vertices", c.vertices},
                      {"instances", scene.primitives.size()}, {"triangles", triangles},
+                     {"punctualLights", scene.lights.size()}, {"bezierPatches", scene.bezierPatches.size()},
                      {"extensionsUsed", scene.extensionsUsed}, {"warnings", scene.warnings}};
     nlohmann::json mats = nlohmann::json::array();
     for (const Material& m : scene.materials)
@@ -178,6 +179,13 @@ void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
       out << ", emits (" << m.emission.x << ", " << m.emission.y << ", " << m.emission.z << ")";
     if (m.doubleSided) out << ", double-sided";
     out << "\n";
+  }
+  for (const PunctualLight& light : scene.lights) {
+    static const char* kTypes[] = {"point", "spot", "directional"};
+    out << "  light \"" << light.name << "\" (" << kTypes[int(light.type)] << ", node " << light.node << "): "
+        << (light.type == PunctualLight::Type::kDirectional ? "illuminance " : "intensity ") << light.intensity.x << ", "
+        << light.intensity.y << ", " << light.intensity.z
+        << (light.type == PunctualLight::Type::kDirectional ? " lx" : " cd") << "\n";
   }
   if (!scene.hasEmitter()) out << "  no emitter: the bake will be black\n";
   for (const auto& w : scene.warnings) out << "  warning: " << w << "\n";
