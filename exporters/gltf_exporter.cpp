@@ -134,6 +134,26 @@ void addBakeAttributes(tinygltf::Model& m, tinygltf::Primitive& prim, const std:
   prim.attributes["COLOR_0"] = appendFloatAccessor(m, displayColors(radiance), TINYGLTF_TYPE_VEC3, 3, false);
 }
 
+// Inverse of an affine column-major 4×4 matrix (node to world), by the 3×3 adjugate.
+std::array<double, 16> invertAffine(const std::array<double, 16>& m) {
+  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
+  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  const double r[9] = {(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det,
+                       (f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det,
+                       (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det};  // row-major
+  std::array<double, 16> out{r[0], r[3], r[6], 0, r[1], r[4], r[7], 0, r[2], r[5], r[8], 0, 0, 0, 0, 1};
+  const double tx = m[12], ty = m[13], tz = m[14];
+  out[12] = -(r[0] * tx + r[1] * ty + r[2] * tz);
+  out[13] = -(r[3] * tx + r[4] * ty + r[5] * tz);
+  out[14] = -(r[6] * tx + r[7] * ty + r[8] * tz);
+  return out;
+}
+
+Vec3 applyAffine(const std::array<double, 16>& m, const Vec3& p) {
+  return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
+          m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
+}
+
 // The tessellated primitive: every attribute of the source interpolated at the new vertices
 // (barycentric on the source triangle; integer sets such as JOINTS_n from the nearest corner).
 tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Primitive& source, const Primitive& prim,
@@ -170,7 +190,26 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
     return std::pair{result, comps};
   };
 
+  if (!patches.positions.empty()) {
+    // A subdivision surface: positions and normals come from the limit surface (world space),
+    // brought back to the node's space; the other attributes are interpolated from the cage.
+    const auto inverse = invertAffine(prim.world);
+    std::vector<float> positions, normals;
+    for (size_t v = 0; v < patches.positions.size(); ++v) {
+      const Vec3 p = applyAffine(inverse, patches.positions[v]);
+      // Normals go back by the transpose of the world matrix (the inverse of its inverse transpose).
+      const auto& w = prim.world;
+      const Vec3& n = patches.normals[v];
+      const Vec3 local = normalize(Vec3{w[0] * n.x + w[1] * n.y + w[2] * n.z, w[4] * n.x + w[5] * n.y + w[6] * n.z,
+                                        w[8] * n.x + w[9] * n.y + w[10] * n.z});
+      positions.insert(positions.end(), {float(p.x), float(p.y), float(p.z)});
+      normals.insert(normals.end(), {float(local.x), float(local.y), float(local.z)});
+    }
+    out.attributes["POSITION"] = appendFloatAccessor(m, positions, TINYGLTF_TYPE_VEC3, 3, true);
+    out.attributes["NORMAL"] = appendFloatAccessor(m, normals, TINYGLTF_TYPE_VEC3, 3, false);
+  }
   for (const auto& [semantic, accessor] : source.attributes) {
+    if (!patches.positions.empty() && (semantic == "POSITION" || semantic == "NORMAL")) continue;
     const auto& acc = m.accessors[accessor];
     const bool integerSet = semantic.rfind("JOINTS_", 0) == 0;
     const bool direction = semantic == "NORMAL" || semantic == "TANGENT";

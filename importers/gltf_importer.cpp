@@ -453,6 +453,10 @@ struct Importer {
     out.mesh = meshIndex;
     out.primitive = primIndex;
     out.material = prim.material >= 0 ? prim.material : int(scene.materials.size()) - 1;
+    out.world = world;
+    out.subdivision = subdivisionScheme(m.nodes[nodeIndex].extras, "node " + std::to_string(nodeIndex));
+    if (out.subdivision == SubdivisionScheme::kNone)
+      out.subdivision = subdivisionScheme(m.meshes[meshIndex].extras, "mesh " + std::to_string(meshIndex));
     out.positions.resize(count);
     for (size_t i = 0; i < count; ++i) out.positions[i] = transformPoint(world, {pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]});
     const NormalMatrix nm = normalMatrix(world);
@@ -507,6 +511,16 @@ struct Importer {
     }
     checkTexcoords(prim, what);
     scene.primitives.push_back(std::move(out));
+  }
+
+  // "extras": {"subdivision": {"scheme": "catmull-clark" | "loop"}} marks a subdivision surface.
+  SubdivisionScheme subdivisionScheme(const tinygltf::Value& extras, const std::string& what) {
+    if (!extras.IsObject() || !extras.Has("subdivision")) return SubdivisionScheme::kNone;
+    const tinygltf::Value& scheme = extras.Get("subdivision").Get("scheme");
+    const std::string name = scheme.IsString() ? scheme.Get<std::string>() : "";
+    if (name == "catmull-clark") return SubdivisionScheme::kCatmullClark;
+    if (name == "loop") return SubdivisionScheme::kLoop;
+    ctx.invalid(what + ": extras.subdivision.scheme must be \"catmull-clark\" or \"loop\"");
   }
 
   // Every texture a material uses must find its TEXCOORD_n on the primitive.

@@ -44,6 +44,8 @@ struct Material {
   bool doubleSided = false;
 };
 
+enum class SubdivisionScheme { kNone, kCatmullClark, kLoop };
+
 // One glTF primitive placed in the world by one node: triangles only, counter-clockwise seen from
 // the front in world space (winding already flipped for mirroring transforms).
 struct Primitive {
@@ -55,6 +57,10 @@ struct Primitive {
   std::vector<Vec3> normals;                         // world space, unit; flat normals if NORMAL is absent
   bool hasNormals = false;                           // whether NORMAL came from the file
   std::vector<std::array<uint32_t, 3>> triangles;    // indices into positions
+  std::array<double, 16> world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // node to world, column-major
+  // A subdivision surface: these triangles (paired into quads where coplanar) are its cage.
+  // From "extras": {"subdivision": {"scheme": "catmull-clark" | "loop"}} on the mesh or node.
+  SubdivisionScheme subdivision = SubdivisionScheme::kNone;
 };
 
 // A KHR_lights_punctual light placed by a node, in glTF's photometric units.

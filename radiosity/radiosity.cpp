@@ -138,7 +138,7 @@ Vec3 pointOnPatch(const std::array<Vec3, 4>& q, double s, double t) {
 
 // For each vertex, the direction into its own surface from which a crease vertex takes its limit:
 // the mean direction to the centroids of the patches around it (the corner bisector for a patch
-// corner, the inward perpendicular on an edge), in the vertex's tangent plane.
+// corner, the inward perpendicular on an edge).
 std::vector<Vec3> approachDirections(const PatchMesh& mesh) {
   std::vector<Vec3> sum(mesh.positions.size());
   for (const Patch& patch : mesh.patches) {
@@ -149,10 +149,10 @@ std::vector<Vec3> approachDirections(const PatchMesh& mesh) {
       sum[patch.v[k]] += normalize(centroid - mesh.positions[patch.v[k]]);
     }
   }
-  for (size_t v = 0; v < sum.size(); ++v) {
-    const Vec3& n = mesh.normals[v];
-    sum[v] = normalize(sum[v] - n * dot(sum[v], n));
-  }
+  // Not projected onto the tangent plane: on a curved surface the facets around a vertex rise or
+  // fall away from it, and the limit must be taken inside them (inside the closed faceted surface),
+  // or the closure Σ_j K_ij = 1 loses the near field.
+  for (Vec3& a : sum) a = normalize(a);
   return sum;
 }
 
@@ -288,14 +288,15 @@ std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion&
       ignore.push_back(0);
       const auto own = around.of(i);
       for (size_t source = 0; source < mesh.patches.size(); ++source) {
-        // The vertex's own patches lie on its surface: seen edge-on from the vertex, they cover
-        // nothing (and their limit seen from behind is ill-conditioned on a curved surface).
-        if (std::find(own.begin(), own.end(), uint32_t(source)) != own.end()) continue;
         const Patch& patch = mesh.patches[source];
         ignore.back() = uint32_t(source);
         auto q = corners(mesh, patch);
         Vec3 normal = patch.normal;
-        if (dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
+        // The vertex's own patches: on a concave surface they rise in front of it and cover what
+        // their front-side limit says (as in K); on a convex one they fall away behind it and
+        // cover nothing (their limit from behind is ill-conditioned, so it is not taken).
+        const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
+        if (!isOwn && dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
           // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
           std::swap(q[1], q[3]);
           normal = -normal;

@@ -1,4 +1,5 @@
 #include "tessellate/tessellate.h"
+#include "tessellate/subdivision.h"
 
 #include <algorithm>
 #include <limits>
@@ -148,6 +149,99 @@ SurfacePoint locate(const Primitive& prim, const Face& face, const Vec3& x) {
     }
   }
   return best;
+}
+
+// A facet of a curved surface as patches. The form factors need planar patches (a non-planar quad
+// has no single front side, and a vertex can sit behind its best-fit plane while seeing it), so a
+// facet whose corners leave its plane by more than rounding becomes two planar triangles, split
+// along the shorter diagonal; the unknowns (its vertices) stay the same. The facet's
+// non-planarity is reported. False for a facet of zero area.
+bool addCurvedPatch(PatchMesh& mesh, const std::array<uint32_t, 4>& q, int material, int primitive) {
+  constexpr double kPlanarTolerance = 1e-9;  // corner offset over diagonal
+  const std::array<Vec3, 4> c{mesh.positions[q[0]], mesh.positions[q[1]], mesh.positions[q[2]], mesh.positions[q[3]]};
+  const Vec3 area2 = cross(c[2] - c[0], c[3] - c[1]);
+  if (!(length(area2) > 0)) return false;
+  const Vec3 normal = normalize(area2);
+  const Vec3 centre = (c[0] + c[1] + c[2] + c[3]) / 4;
+  const double diagonal = std::max(length(c[2] - c[0]), length(c[3] - c[1]));
+  double offPlane = 0;
+  for (const Vec3& x : c) offPlane = std::max(offPlane, std::abs(dot(x - centre, normal)) / diagonal);
+  mesh.worstNonPlanarity = std::max(mesh.worstNonPlanarity, offPlane);
+  if (q[2] == q[3] || offPlane <= kPlanarTolerance) {
+    mesh.patches.push_back({q, material, primitive, normal, 0.5 * length(area2)});
+    return true;
+  }
+  ++mesh.splitFacets;
+  const bool alongFirst = length(c[2] - c[0]) <= length(c[3] - c[1]);
+  const std::array<std::array<int, 3>, 2> halves =
+      alongFirst ? std::array<std::array<int, 3>, 2>{{{0, 1, 2}, {0, 2, 3}}} : std::array<std::array<int, 3>, 2>{{{0, 1, 3}, {1, 2, 3}}};
+  for (const auto& h : halves) {
+    const Vec3 n2 = cross(c[h[1]] - c[h[0]], c[h[2]] - c[h[0]]);
+    if (!(length(n2) > 0)) continue;
+    mesh.patches.push_back({{q[h[0]], q[h[1]], q[h[2]], q[h[2]]}, material, primitive, normalize(n2), 0.5 * length(n2)});
+  }
+  return true;
+}
+
+// A subdivision surface: the primitive's faces (triangle pairs as quads for Catmull-Clark,
+// triangles for Loop) on vertices welded by position are the cage; its limit surface is sampled
+// at one rate, chosen from the chord tolerance (chord ≈ h²/(8R) for facets of size h on a surface
+// of curvature radius R ~ half the cage's size), --subdivide and --max-edge.
+void tessellateSubdivided(const Scene& scene, int primIndex, SubdivisionScheme scheme, const TessellateOptions& options,
+                          Welder& welder, PatchMesh& mesh) {
+  const Primitive& prim = scene.primitives[primIndex];
+  PrimitivePatches& out = mesh.primitives[primIndex];
+  std::vector<Face> faces;
+  if (scheme == SubdivisionScheme::kLoop) {
+    for (size_t t = 0; t < prim.triangles.size(); ++t) {
+      const auto& tri = prim.triangles[t];
+      faces.push_back({{tri[0], tri[1], tri[2], tri[2]}, {int(t), -1}, faceNormal(prim, tri)});
+    }
+  } else {
+    faces = buildFaces(prim);
+  }
+  std::map<std::tuple<double, double, double>, uint32_t> cageIndex;
+  std::vector<Vec3> cage;
+  std::vector<std::vector<uint32_t>> cageFaces;
+  double longestEdge = 0;
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const Face& f : faces) {
+    std::vector<uint32_t> face;
+    for (int k = 0; k < 4; ++k) {
+      if (k == 3 && f.q[3] == f.q[2]) break;
+      const Vec3& p = prim.positions[f.q[k]];
+      auto [it, inserted] = cageIndex.try_emplace({p.x, p.y, p.z}, uint32_t(cage.size()));
+      if (inserted) cage.push_back(p);
+      face.push_back(it->second);
+      lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+      hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+    }
+    for (size_t k = 0; k < face.size(); ++k) longestEdge = std::max(longestEdge, length(cage[face[(k + 1) % face.size()]] - cage[face[k]]));
+    cageFaces.push_back(std::move(face));
+  }
+  const double size = length(hi - lo);
+  const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * size;
+  int rate = std::max(options.subdivide, int(std::ceil(longestEdge / std::sqrt(8 * (size / 2) * chord))));
+  if (options.maxEdgeLength > 0) rate = std::max(rate, int(std::ceil(longestEdge / options.maxEdgeLength)));
+  rate = std::clamp(rate, 1, 256);
+  mesh.curvedRate = std::max(mesh.curvedRate, rate);
+
+  const LimitTessellation limit = tessellateLimitSurface(cage, cageFaces, scheme, rate);
+  out.keepsSourceVertices = false;
+  std::vector<uint32_t> patchVertex(limit.positions.size());
+  for (size_t i = 0; i < limit.positions.size(); ++i) {
+    patchVertex[i] = welder.vertex(limit.positions[i], limit.normals[i], prim.material, kSmoothSeamCos);
+    out.patchVertex.push_back(patchVertex[i]);
+    out.source.push_back(locate(prim, faces[limit.face[i]], limit.positions[i]));
+    out.positions.push_back(limit.positions[i]);
+    out.normals.push_back(limit.normals[i]);
+  }
+  for (const auto& quad : limit.quads) {
+    std::array<uint32_t, 4> q{patchVertex[quad[0]], patchVertex[quad[1]], patchVertex[quad[2]], patchVertex[quad[3]]};
+    if (!addCurvedPatch(mesh, q, prim.material, primIndex)) continue;
+    out.triangles.push_back({quad[0], quad[1], quad[2]});
+    if (quad[3] != quad[2]) out.triangles.push_back({quad[0], quad[2], quad[3]});
+  }
 }
 
 void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, Welder& welder, PatchMesh& mesh) {
@@ -408,14 +502,7 @@ void tessellateBezier(const Scene& scene, const TessellateOptions& options, Weld
           if (q[k] != q[(k + 3) % 4]) unique[distinct++] = q[k];
         if (distinct < 3) continue;  // a degenerate sliver at a pole
         if (distinct == 3) q = {unique[0], unique[1], unique[2], unique[2]};
-        std::array<Vec3, 4> c{mesh.positions[q[0]], mesh.positions[q[1]], mesh.positions[q[2]], mesh.positions[q[3]]};
-        const Vec3 area2 = cross(c[2] - c[0], c[3] - c[1]);
-        if (!(length(area2) > 0)) continue;
-        const Vec3 normal = normalize(area2);
-        const Vec3 centre = (c[0] + c[1] + c[2] + c[3]) / 4;
-        const double diagonal = std::max(length(c[2] - c[0]), length(c[3] - c[1]));
-        for (const Vec3& x : c) mesh.worstNonPlanarity = std::max(mesh.worstNonPlanarity, std::abs(dot(x - centre, normal)) / diagonal);
-        mesh.patches.push_back({q, patch.material, -1, normal, 0.5 * length(area2)});
+        if (!addCurvedPatch(mesh, q, patch.material, -1)) continue;
         for (uint32_t v : q)
           if (outputOf.try_emplace(v, uint32_t(surface.patchVertex.size())).second) surface.patchVertex.push_back(v);
         surface.triangles.push_back({outputOf[q[0]], outputOf[q[1]], outputOf[q[2]]});
@@ -449,7 +536,13 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   Welder welder{mesh, {}};
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
     const size_t first = mesh.patches.size();
-    tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, welder, mesh);
+    const SubdivisionScheme scheme = scene.primitives[p].subdivision != SubdivisionScheme::kNone
+                                         ? scene.primitives[p].subdivision
+                                         : options.subdivisionSurfaces;
+    if (scheme != SubdivisionScheme::kNone && !scene.primitives[p].triangles.empty())
+      tessellateSubdivided(scene, int(p), scheme, options, welder, mesh);
+    else
+      tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, welder, mesh);
     if (scene.materials[scene.primitives[p].material].doubleSided) addBackSides(mesh, welder, first);
   }
   tessellateBezier(scene, options, welder, mesh);

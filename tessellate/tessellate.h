@@ -39,6 +39,9 @@ struct PrimitivePatches {
   std::vector<SurfacePoint> source;              // where each output vertex lies (when !keepsSourceVertices)
   std::vector<std::array<uint32_t, 3>> triangles;  // output triangles (when !keepsSourceVertices)
   std::vector<uint32_t> patch;                   // patch of each output vertex (flatPatches only)
+  // Subdivision surfaces: the limit positions and normals of the output vertices (world space);
+  // `source` then only carries the other attributes.
+  std::vector<Vec3> positions, normals;
 };
 
 // Geometry made from curved input that has no glTF primitive to carry it (a .bpt file): the
@@ -57,7 +60,8 @@ struct PatchMesh {
   std::vector<PrimitivePatches> primitives;  // parallel to Scene::primitives
   std::vector<GeneratedSurface> generated;   // from Scene::bezierPatches
   int curvedRate = 0;             // quads per patch edge on curved surfaces
-  double worstNonPlanarity = 0;   // largest corner distance from a patch's plane over its diagonal
+  double worstNonPlanarity = 0;   // curved surfaces: largest corner distance from a facet's plane over its diagonal
+  size_t splitFacets = 0;         // non-planar facets split into two planar triangle patches
 };
 
 struct TessellateOptions {
@@ -68,6 +72,9 @@ struct TessellateOptions {
   // surface (chord error), at least `subdivide`, and edges within maxEdgeLength. 0: 1/1000 of the
   // surface's size.
   double maxChord = 0;
+  // Treat every mesh as a subdivision surface of this scheme (--subdivision-surfaces); meshes
+  // flagged in their extras use their own scheme.
+  SubdivisionScheme subdivisionSurfaces = SubdivisionScheme::kNone;
 };
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options = {});

@@ -594,6 +594,53 @@ TEST(Sky, BadSkyIsAUsageError) {
   EXPECT_NE(r.err.find("--sky 1,-2,3: expected R,G,B"), std::string::npos) << r.err;
 }
 
+TEST(SubdivisionSurface, FlaggedCubeCageBakesAsAFurnaceSphere) {
+  // One indexed cube (8 shared vertices, 12 triangles facing in) flagged as a Catmull-Clark
+  // surface, placed by a node 5 m along x: the limit surface is a closed near-sphere, so
+  // L = L⁰/(1−ρ) = 2 at every written vertex, and the written positions are in the node's space.
+  const std::vector<float> corners{0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1};
+  // Faces counter-clockwise seen from inside.
+  const uint16_t faces[] = {0, 1, 2, 0, 2, 3, 4, 7, 6, 4, 6, 5, 0, 4, 5, 0, 5, 1, 3, 2, 6, 3, 6, 7, 0, 3, 7, 0, 7, 4, 1, 5, 6, 1, 6, 2};
+  std::vector<float> bytes(corners);
+  bytes.resize(24 + 18, 0);
+  std::memcpy(bytes.data() + 24, faces, sizeof faces);
+  const std::string gltf = R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+    "nodes":[{"mesh":0,"translation":[5,0,0]}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1,"material":0}],
+               "extras":{"subdivision":{"scheme":"catmull-clark"}}}],
+    "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0},"emissiveFactor":[1,1,1]}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[1,1,1]},
+                 {"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}],
+    "bufferViews":[{"buffer":0,"byteLength":96},{"buffer":0,"byteOffset":96,"byteLength":72}],
+    "buffers":[{"byteLength":168,"uri":"data:application/octet-stream;base64,)" + base64(bytes) + R"("}]})";
+  const fs::path in = tempDir() / "cage.gltf", out = tempDir() / "cage.glb";
+  std::ofstream(in) << gltf;
+  const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--subdivide", "12", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  const auto& prim = m.meshes[0].primitives[0];
+  const std::vector<float> L = radianceOf(m, prim);
+  for (float v : L) EXPECT_NEAR(v, 2.0f, 2e-4f);
+  const std::string pos = accessorBytes(m, prim.attributes.at("POSITION"));
+  const auto* P = reinterpret_cast<const float*>(pos.data());
+  const size_t n = pos.size() / 12;
+  EXPECT_GT(n, 600u);
+  double cx = 0, minR = 1e9, maxR = 0;
+  for (size_t v = 0; v < n; ++v) {
+    cx += P[3 * v] / n;
+    const double dx = P[3 * v] - 0.5, dy = P[3 * v + 1] - 0.5, dz = P[3 * v + 2] - 0.5;
+    minR = std::min(minR, std::sqrt(dx * dx + dy * dy + dz * dz));
+    maxR = std::max(maxR, std::sqrt(dx * dx + dy * dy + dz * dz));
+  }
+  EXPECT_NEAR(cx, 0.5, 1e-3);             // local space, not the node's x = 5
+  EXPECT_LT(maxR, std::sqrt(0.75) - 0.1);  // the cube's corners are rounded off
+  EXPECT_GT(minR, 0.3);
+  if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed";
+  std::string log;
+  EXPECT_EQ(runValidator({out}, &log), 0) << log;
+}
+
 TEST(Cli, UsageErrorsAreExit1) {
   EXPECT_EQ(radbake({"bake"}).code, 1);
   EXPECT_EQ(radbake({"bake", "a.gltf", "-o", "b.glb", "--method", "pathtrace"}).code, 1);

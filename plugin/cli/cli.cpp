@@ -221,6 +221,8 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   tessellateOptions.subdivide = options.subdivide;
   tessellateOptions.maxEdgeLength = options.maxEdge;
   tessellateOptions.maxChord = options.maxChord;
+  if (options.subdivisionSurfaces == "catmull-clark") tessellateOptions.subdivisionSurfaces = SubdivisionScheme::kCatmullClark;
+  if (options.subdivisionSurfaces == "loop") tessellateOptions.subdivisionSurfaces = SubdivisionScheme::kLoop;
   tessellateOptions.flatPatches = options.method == "constant";
   const PatchMesh mesh = tessellate(scene, tessellateOptions);
   const auto t2 = Clock::now();
@@ -248,7 +250,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
         {"counts", {{"primitiveInstances", scene.primitives.size()}, {"patches", mesh.patches.size()},
                     {"vertices", mesh.positions.size()}, {"writtenVertices", summary.writtenVertices},
                     {"clonedMeshes", summary.clonedMeshes}, {"curvedRate", mesh.curvedRate},
-                    {"worstNonPlanarity", mesh.worstNonPlanarity}}},
+                    {"worstNonPlanarity", mesh.worstNonPlanarity}, {"splitFacets", mesh.splitFacets}}},
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree}}},
@@ -287,6 +289,10 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
       ->check(CLI::PositiveNumber);
   bakeCmd->add_option("--max-chord", o.maxChord, "curved surfaces: largest distance between a patch and the surface")
       ->check(CLI::PositiveNumber);
+  bakeCmd->add_option("--subdivision-surfaces", o.subdivisionSurfaces,
+                      "treat every mesh as a subdivision surface: catmull-clark or loop (meshes can also be flagged "
+                      "in their extras, see docs/subdivision.md)")
+      ->check(CLI::IsMember({"catmull-clark", "loop"}));
   bakeCmd->add_option("--lightmap", o.lightmap, "also write an HDR lightmap atlas (.exr)");
   bakeCmd->add_option("--exposure", o.exposure, "exposure in EV for COLOR_0 and previews");
   bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0");

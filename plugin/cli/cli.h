@@ -20,6 +20,7 @@ struct Options {
   int subdivide = 1;
   double maxEdge = 0;
   double maxChord = 0;
+  std::string subdivisionSurfaces;  // "", "catmull-clark" or "loop"
   std::string lightmap;
   std::optional<double> exposure;
   std::string view, display, ocioConfig;
