@@ -679,6 +679,9 @@ Scene importScene(const std::string& path, const ImportOptions& options) {
       if (auto it = prim.attributes.find("POSITION"); it != prim.attributes.end()) c.vertices += m.accessors[it->second].count;
   scene.extensionsUsed = m.extensionsUsed;
   scene.document = std::move(document);
+  // A mesh placed by several nodes would repeat its warnings: each is said once, in order.
+  std::set<std::string> said;
+  std::erase_if(scene.warnings, [&](const std::string& w) { return !said.insert(w).second; });
   return scene;
 }
 

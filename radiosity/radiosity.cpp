@@ -491,6 +491,10 @@ std::vector<Vec3> withSky(const std::vector<Vec3>& emission, const std::vector<V
   return source;
 }
 
+bool anyLight(const std::vector<Vec3>& source) {
+  return std::any_of(source.begin(), source.end(), [](const Vec3& v) { return v.x != 0 || v.y != 0 || v.z != 0; });
+}
+
 }  // namespace
 
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options) {
@@ -500,9 +504,6 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   const Occlusion occlusion(mesh);
   std::vector<Vec3> gathered;
   if (options.method == Method::kBilinear) {
-    Transport K = bilinearTransport(mesh, occlusion, options);
-    storeIfItFits(K, options, solution.matrixEntries);
-    solution.matrixFree = !K.stored();
     std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
     for (size_t v = 0; v < mesh.positions.size(); ++v) {
       emission[v] = scene.materials[mesh.vertexMaterial[v]].emission;
@@ -511,6 +512,12 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     const std::vector<Vec3> source =
         withDirectLight(withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion); }),
                         reflectance, bilinearDirectLight(scene, mesh, occlusion));
+    Transport K;
+    if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
+      K = bilinearTransport(mesh, occlusion, options);
+      storeIfItFits(K, options, solution.matrixEntries);
+      solution.matrixFree = !K.stored();
+    }
     iterate(K, source, reflectance, options, solution.vertexRadiance, gathered, solution);
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
@@ -532,9 +539,6 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       solution.patchRadiance[p] = sum / (a[0] + a[1] + a[2] + a[3]);
     }
   } else {
-    Transport F = constantTransport(mesh, occlusion, options);
-    storeIfItFits(F, options, solution.matrixEntries);
-    solution.matrixFree = !F.stored();
     std::vector<Vec3> emission(mesh.patches.size()), reflectance(mesh.patches.size());
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       emission[p] = scene.materials[mesh.patches[p].material].emission;
@@ -543,6 +547,12 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     const std::vector<Vec3> source =
         withDirectLight(withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion); }),
                         reflectance, constantDirectLight(scene, mesh, occlusion));
+    Transport F;
+    if (anyLight(source)) {
+      F = constantTransport(mesh, occlusion, options);
+      storeIfItFits(F, options, solution.matrixEntries);
+      solution.matrixFree = !F.stored();
+    }
     iterate(F, source, reflectance, options, solution.patchRadiance, gathered, solution);
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       const Vec3& rho = reflectance[p];
