@@ -75,7 +75,7 @@ void ShadowRays(benchmark::State& state) {
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       const uint32_t c = j * (n + 1) + i;
-      mesh.patches.push_back({{c, c + n + 1, c + n + 2, c + 1}, 0, 0, {0, 1, 0}, 1.0 / (n * n)});
+      mesh.patches.push_back(makePatch({c, c + n + 1, c + n + 2, c + 1}, 0, 0, {0, 1, 0}, 1.0 / (n * n)));
     }
   const Occlusion occlusion(mesh);
   std::mt19937 rng(2);

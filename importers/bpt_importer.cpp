@@ -42,7 +42,10 @@ Scene importBezierPatches(const std::string& path) {
     if (!(fields >> count) || count < 0 || count > kMaxPatches)
       fail("line " + std::to_string(lineNumber) + ": expected a patch count, got \"" + line + "\"");
   }
-  scene.materials.push_back({"bezier surface (radbake default)", -1, Vec3{1, 1, 1} * kBezierReflectance, {}, false});
+  Material grey;
+  grey.name = "bezier surface (radbake default)";
+  grey.reflectance = Vec3{1, 1, 1} * kBezierReflectance;
+  scene.materials.push_back(grey);
   for (long p = 0; p < count; ++p) {
     const std::string where = "patch " + std::to_string(p);
     nextLine(where + " degrees");

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -16,6 +17,7 @@
 #include "importers/gltf_schema.h"
 #include "importers/importers.h"
 #include "importers/bpt_importer.h"
+#include "importers/texture.h"
 
 namespace radbake {
 namespace {
@@ -363,6 +365,24 @@ void checkReferences(const Context& ctx, const tinygltf::Model& m) {
       if (parent[n] != -1) ctx.invalid("scene " + std::to_string(s) + ": node " + std::to_string(n) + " is not a root node");
 }
 
+// A material's texture slot with its KHR_texture_transform; `texture` is still the glTF index.
+TextureRef readTextureRef(int index, int texCoord, const tinygltf::ExtensionMap& extensions) {
+  TextureRef ref;
+  ref.texture = index;
+  ref.texCoord = texCoord;
+  if (auto it = extensions.find("KHR_texture_transform"); it != extensions.end()) {
+    const tinygltf::Value& t = it->second;
+    auto number = [](const tinygltf::Value& v, double fallback) { return v.IsNumber() || v.IsInt() ? v.GetNumberAsDouble() : fallback; };
+    if (t.Get("offset").IsArray() && t.Get("offset").ArrayLen() == 2)
+      for (int k = 0; k < 2; ++k) ref.offset[k] = number(t.Get("offset").Get(k), 0);
+    if (t.Get("scale").IsArray() && t.Get("scale").ArrayLen() == 2)
+      for (int k = 0; k < 2; ++k) ref.scale[k] = number(t.Get("scale").Get(k), 1);
+    ref.rotation = number(t.Get("rotation"), 0);
+    if (t.Has("texCoord")) ref.texCoord = int(number(t.Get("texCoord"), texCoord));
+  }
+  return ref;
+}
+
 Material readMaterial(const tinygltf::Material& mat, int index) {
   Material out;
   out.name = mat.name.empty() ? "material " + std::to_string(index) : mat.name;
@@ -380,6 +400,8 @@ Material readMaterial(const tinygltf::Material& mat, int index) {
   if (mat.emissiveFactor.size() >= 3)
     out.emission = Vec3{mat.emissiveFactor[0], mat.emissiveFactor[1], mat.emissiveFactor[2]} * strength;
   out.doubleSided = mat.doubleSided;
+  out.baseColorTexture = readTextureRef(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, pbr.baseColorTexture.extensions);
+  out.emissiveTexture = readTextureRef(mat.emissiveTexture.index, mat.emissiveTexture.texCoord, mat.emissiveTexture.extensions);
   return out;
 }
 
@@ -397,6 +419,38 @@ std::vector<std::array<uint32_t, 3>> triangulate(int mode, const std::vector<uin
     for (size_t i = 1; i + 1 < idx.size(); ++i) tris.push_back({idx[i], idx[i + 1], idx[0]});
   }
   return tris;
+}
+
+// Decodes the textures that light depends on (base color and emissive) and points the materials'
+// references at Scene::textures. An image that cannot be decoded is a warning: the factor alone
+// is used.
+void decodeTextures(const Context& ctx, const tinygltf::Model& m, Scene& scene) {
+  std::map<int, int> decoded;  // glTF texture → Scene texture (-1: failed)
+  auto resolve = [&](TextureRef& ref) {
+    if (ref.texture < 0) return;
+    auto [it, isNew] = decoded.try_emplace(ref.texture, -1);
+    if (isNew) {
+      const tinygltf::Texture& gt = m.textures[ref.texture];
+      Texture texture;
+      std::string error = "no image";
+      if (gt.source >= 0 && decodeColorTexture(m.images[gt.source].image, texture, error)) {
+        if (gt.sampler >= 0) {
+          texture.wrapS = m.samplers[gt.sampler].wrapS;
+          texture.wrapT = m.samplers[gt.sampler].wrapT;
+        }
+        scene.textures.push_back(std::move(texture));
+        it->second = int(scene.textures.size()) - 1;
+      } else {
+        ctx.warn("texture " + std::to_string(ref.texture) + " (image " + std::to_string(gt.source) +
+                 "): cannot decode (" + error + "); its material's factor is used alone");
+      }
+    }
+    ref.texture = it->second;
+  };
+  for (Material& mat : scene.materials) {
+    resolve(mat.baseColorTexture);
+    resolve(mat.emissiveTexture);
+  }
 }
 
 struct Importer {
@@ -510,6 +564,7 @@ struct Importer {
       for (auto& n : out.normals) n = normalize(n);
     }
     checkTexcoords(prim, what);
+    readTexcoords(prim, what, out);
     scene.primitives.push_back(std::move(out));
   }
 
@@ -521,6 +576,30 @@ struct Importer {
     if (name == "catmull-clark") return SubdivisionScheme::kCatmullClark;
     if (name == "loop") return SubdivisionScheme::kLoop;
     ctx.invalid(what + ": extras.subdivision.scheme must be \"catmull-clark\" or \"loop\"");
+  }
+
+  // The TEXCOORD_n sets the material's light textures use.
+  void readTexcoords(const tinygltf::Primitive& prim, const std::string& what, Primitive& out) {
+    const Material& mat = scene.materials[out.material];
+    for (const TextureRef* ref : {&mat.baseColorTexture, &mat.emissiveTexture}) {
+      if (ref->texture < 0 || ref->texCoord < 0 || ref->texCoord > 7) continue;
+      if (int(out.texcoords.size()) > ref->texCoord && !out.texcoords[ref->texCoord].empty()) continue;
+      auto it = prim.attributes.find("TEXCOORD_" + std::to_string(ref->texCoord));
+      if (it == prim.attributes.end()) continue;  // checkTexcoords reports the glTF's own slots
+      const auto& acc = m.accessors[it->second];
+      if (acc.type != TINYGLTF_TYPE_VEC2 || acc.count != out.positions.size())
+        ctx.invalid(what + ": TEXCOORD_" + std::to_string(ref->texCoord) + " accessor " + std::to_string(it->second) +
+                    " is not VEC2 with one value per vertex");
+      const std::vector<double> uv = readAccessor(ctx, m, it->second, what + " TEXCOORD_" + std::to_string(ref->texCoord));
+      out.texcoords.resize(std::max<size_t>(out.texcoords.size(), ref->texCoord + 1));
+      auto& set = out.texcoords[ref->texCoord];
+      set.resize(acc.count);
+      for (size_t i = 0; i < acc.count; ++i) {
+        if (!std::isfinite(uv[2 * i]) || !std::isfinite(uv[2 * i + 1]))
+          ctx.invalid(what + ": TEXCOORD_" + std::to_string(ref->texCoord) + " element " + std::to_string(i) + " is not finite");
+        set[i] = {uv[2 * i], uv[2 * i + 1]};
+      }
+    }
   }
 
   // Every texture a material uses must find its TEXCOORD_n on the primitive.
@@ -597,12 +676,18 @@ Scene importScene(const std::string& path, const ImportOptions& options) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".bpt") return importBezierPatches(path);
+  std::vector<std::string> unused;
+  std::string name = std::filesystem::path(path).filename().string();
+  const std::vector<unsigned char> bytes = readFile(Context{name.empty() ? path : name, &unused}, path);
+  return importGltfBytes(bytes, path, options);
+}
+
+Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string& path, const ImportOptions& options) {
   Scene scene;
   scene.path = path;
   Context ctx{std::filesystem::path(path).filename().string(), &scene.warnings};
   if (ctx.file.empty()) ctx.file = path;
 
-  const std::vector<unsigned char> bytes = readFile(ctx, path);
   const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
   std::string jsonText;
   if (binary) {
@@ -649,6 +734,7 @@ Scene importScene(const std::string& path, const ImportOptions& options) {
   for (size_t i = 0; i < m.materials.size(); ++i) scene.materials.push_back(readMaterial(m.materials[i], int(i)));
   scene.materials.push_back(readMaterial(tinygltf::Material{}, -1));
   scene.materials.back().name = "default material";
+  decodeTextures(ctx, m, scene);
 
   Importer importer{ctx, m, scene, {}};
   const int sceneIndex = m.defaultScene >= 0 ? m.defaultScene : (m.scenes.empty() ? -1 : 0);

@@ -190,6 +190,32 @@ const Schema kRoot{{{"asset", Kind::kObject, &kAsset}, {"scene", Kind::kUint},
                     {"skins", Kind::kAny, &kSkin, true}, {"cameras", Kind::kAny, &kCamera, true},
                     {"animations", Kind::kAny, &kAnimation, true}}};
 
+// Byte ranges tinygltf trusts while parsing (it hands an image's buffer view to the image loader
+// without checking it against the buffer; found by fuzzing): every buffer view inside its buffer's
+// declared byteLength, every image's buffer view existing.
+std::string checkByteRanges(const json& doc) {
+  const json buffers = doc.value("buffers", json::array());
+  const json views = doc.value("bufferViews", json::array());
+  for (size_t i = 0; i < views.size(); ++i) {
+    const json& v = views[i];
+    const std::string where = "/bufferViews/" + std::to_string(i);
+    if (!v.contains("buffer") || !v.contains("byteLength")) return where + ": buffer and byteLength are required";
+    const uint64_t buffer = v["buffer"].get<uint64_t>();
+    if (buffer >= buffers.size()) return where + "/buffer: buffer " + std::to_string(buffer) + " does not exist";
+    const uint64_t end = v.value("byteOffset", uint64_t(0)) + v["byteLength"].get<uint64_t>();
+    const uint64_t size = buffers[buffer].value("byteLength", uint64_t(0));
+    if (end > size)
+      return where + ": bytes up to " + std::to_string(end) + " exceed buffer " + std::to_string(buffer) + " byteLength " +
+             std::to_string(size);
+  }
+  const json images = doc.value("images", json::array());
+  for (size_t i = 0; i < images.size(); ++i)
+    if (images[i].contains("bufferView") && images[i]["bufferView"].get<uint64_t>() >= views.size())
+      return "/images/" + std::to_string(i) + "/bufferView: buffer view " +
+             std::to_string(images[i]["bufferView"].get<uint64_t>()) + " does not exist";
+  return "";
+}
+
 }  // namespace
 
 std::string checkGltfSchema(const std::string& jsonText) {
@@ -199,8 +225,8 @@ std::string checkGltfSchema(const std::string& jsonText) {
   if (!doc.contains("asset")) return "/asset: missing (required by glTF 2.0)";
   std::string error;
   Checker checker{&error};
-  checker.checkObject("", kRoot, doc);
-  return error;
+  if (!checker.checkObject("", kRoot, doc)) return error;
+  return checkByteRanges(doc);
 }
 
 JsonSummary summarizeGltfJson(const std::string& jsonText) {

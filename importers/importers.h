@@ -35,6 +35,20 @@ class Error : public std::runtime_error {
   ExitCode code_;
 };
 
+// A decoded color texture: linear RGB (sRGB decoded, as glTF color textures are), rows top first.
+struct Texture {
+  int width = 0, height = 0;
+  std::vector<float> rgb;
+  int wrapS = 10497, wrapT = 10497;  // glTF sampler wrap modes (REPEAT by default)
+};
+
+// A material's use of a texture: which one, which TEXCOORD_n, and KHR_texture_transform.
+struct TextureRef {
+  int texture = -1;  // index into Scene::textures; -1: none
+  int texCoord = 0;
+  double offset[2] = {0, 0}, rotation = 0, scale[2] = {1, 1};
+};
+
 // Lambertian material as the solver sees it (DESIGN.md "Units").
 struct Material {
   std::string name;
@@ -42,6 +56,8 @@ struct Material {
   Vec3 reflectance{1, 1, 1};      // ρ = baseColorFactor (linear); 0 for metals
   Vec3 emission{0, 0, 0};         // L⁰ = emissiveFactor × KHR_materials_emissive_strength
   bool doubleSided = false;
+  TextureRef baseColorTexture;    // multiplies the reflectance
+  TextureRef emissiveTexture;     // multiplies the emission
 };
 
 enum class SubdivisionScheme { kNone, kCatmullClark, kLoop };
@@ -57,6 +73,7 @@ struct Primitive {
   std::vector<Vec3> normals;                         // world space, unit; flat normals if NORMAL is absent
   bool hasNormals = false;                           // whether NORMAL came from the file
   std::vector<std::array<uint32_t, 3>> triangles;    // indices into positions
+  std::vector<std::vector<std::array<double, 2>>> texcoords;  // TEXCOORD_n, per vertex (sets the material uses)
   std::array<double, 16> world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // node to world, column-major
   // A subdivision surface: these triangles (paired into quads where coplanar) are its cage.
   // From "extras": {"subdivision": {"scheme": "catmull-clark" | "loop"}} on the mesh or node.
@@ -97,6 +114,7 @@ struct Scene {
   std::vector<Primitive> primitives;  // every triangle primitive instance of the default scene
   std::vector<BezierPatch> bezierPatches;  // curved input (.bpt), one smooth surface
   std::vector<PunctualLight> lights;       // KHR_lights_punctual lights of the default scene
+  std::vector<Texture> textures;           // decoded color textures the materials use
   std::vector<std::string> warnings;  // each names the file and the element
   SceneCounts counts;                 // what the document holds (for `radbake info`)
   std::vector<std::string> extensionsUsed;
@@ -110,9 +128,17 @@ struct ImportOptions {
   bool requireSupportedExtensions = true;
 };
 
+// The texture's color at (u, v) after the reference's transform: bilinear filtering, the sampler's
+// wrap modes. (1, 1, 1) when the reference has no texture.
+Vec3 sampleTexture(const Scene& scene, const TextureRef& ref, double u, double v);
+
 // Reads INPUT (.gltf, .glb or .bpt). A .bpt (Bezier patches, z up) is turned to glTF's y up,
 // (x, y, z) → (x, z, −y), and given one white material (ρ 0.8). Throws Error (exit 2 invalid, 3 unsupported) with one line naming
 // the file and the broken element.
 Scene importScene(const std::string& path, const ImportOptions& options = {});
+
+// The same for a .gltf/.glb already in memory; `path` names it in messages and locates external
+// files (buffers, images) beside it.
+Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string& path, const ImportOptions& options = {});
 
 }  // namespace radbake

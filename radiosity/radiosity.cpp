@@ -506,8 +506,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   if (options.method == Method::kBilinear) {
     std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
     for (size_t v = 0; v < mesh.positions.size(); ++v) {
-      emission[v] = scene.materials[mesh.vertexMaterial[v]].emission;
-      reflectance[v] = scene.materials[mesh.vertexMaterial[v]].reflectance;
+      emission[v] = mesh.vertexEmission[v];
+      reflectance[v] = mesh.vertexReflectance[v];
     }
     const std::vector<Vec3> source =
         withDirectLight(withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion); }),
@@ -541,8 +541,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   } else {
     std::vector<Vec3> emission(mesh.patches.size()), reflectance(mesh.patches.size());
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
-      emission[p] = scene.materials[mesh.patches[p].material].emission;
-      reflectance[p] = scene.materials[mesh.patches[p].material].reflectance;
+      emission[p] = mesh.patches[p].emission;
+      reflectance[p] = mesh.patches[p].reflectance;
     }
     const std::vector<Vec3> source =
         withDirectLight(withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion); }),

@@ -24,6 +24,15 @@ namespace {
 const fs::path kScenes = fs::path(RADBAKE_SHARED_DIR) / "scenes";
 const fs::path kData = RADBAKE_DATA_DIR;
 
+Material material(const char* name, double rho, double emission, bool doubleSided = false) {
+  Material m;
+  m.name = name;
+  m.reflectance = {rho, rho, rho};
+  m.emission = {emission, emission, emission};
+  m.doubleSided = doubleSided;
+  return m;
+}
+
 json loadJson(const fs::path& path) {
   std::ifstream in(path);
   return json::parse(in);
@@ -252,7 +261,7 @@ TEST(Visibility, NoLightLeaksOutOfAClosedBox) {
   // floats in a room. Its outside and the room must stay exactly black at every vertex, including
   // the shell's vertices on the lamp's edges and corners, which coincide with lit vertices.
   Scene scene;
-  scene.materials = {{"room", -1, {0.5, 0.5, 0.5}, {0, 0, 0}, false}, {"glow", -1, {0.5, 0.5, 0.5}, {1, 1, 1}, false}};
+  scene.materials = {material("room", 0.5, 0), material("glow", 0.5, 1)};
   scene.primitives.push_back(boxPrimitive({0, 0, 0}, {2, 2, 2}, true, 0));         // the room
   scene.primitives.push_back(boxPrimitive({0.5, 0.25, 0.5}, {1, 1, 1}, true, 1));   // lamp, inside
   scene.primitives.push_back(boxPrimitive({0.5, 0.25, 0.5}, {1, 1, 1}, false, 0));  // lamp, outside
@@ -348,7 +357,7 @@ TEST(DoubleSided, AnOutwardFacingBoxIsAFurnaceInside) {
   // inside, the back sides form a furnace (L = 2 everywhere); outside, the fronts see nothing
   // (L = L⁰ = 1). Without doubleSided the inside would not be lit at all.
   Scene scene;
-  scene.materials = {{"glow", -1, {0.5, 0.5, 0.5}, {1, 1, 1}, true}};
+  scene.materials = {material("glow", 0.5, 1, true)};
   scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, false, 0));
   TessellateOptions t;
   t.subdivide = 2;
@@ -374,7 +383,7 @@ namespace {
 TEST(SubdivisionSurface, CatmullClarkFurnaceIsTwoEverywhere) {
   for (SubdivisionScheme scheme : {SubdivisionScheme::kCatmullClark, SubdivisionScheme::kLoop}) {
     Scene scene;
-    scene.materials = {{"furnace", -1, {0.5, 0.5, 0.5}, {1, 1, 1}, false}};
+    scene.materials = {material("furnace", 0.5, 1)};
     scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
     scene.primitives[0].subdivision = scheme;
     TessellateOptions t;

@@ -6,6 +6,7 @@
 #include <bit>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <tuple>
 #include <unordered_map>
 
@@ -151,6 +152,110 @@ SurfacePoint locate(const Primitive& prim, const Face& face, const Vec3& x) {
   return best;
 }
 
+// ---- Textures ------------------------------------------------------------------------------
+
+using UV = std::array<double, 2>;
+
+UV uvAt(const Primitive& prim, int set, const SurfacePoint& sp) {
+  const auto& t = prim.triangles[sp.triangle];
+  const auto& uv = prim.texcoords[set];
+  const double w0 = 1 - sp.w1 - sp.w2;
+  return {w0 * uv[t[0]][0] + sp.w1 * uv[t[1]][0] + sp.w2 * uv[t[2]][0], w0 * uv[t[0]][1] + sp.w1 * uv[t[1]][1] + sp.w2 * uv[t[2]][1]};
+}
+
+bool hasTexcoords(const Primitive& prim, int set) {
+  return set >= 0 && set < int(prim.texcoords.size()) && prim.texcoords[set].size() == prim.positions.size();
+}
+
+// The texture averaged over a patch (corner UVs, bilinear between them): a grid of bilinearly
+// filtered samples about one texel apart, each weighted by the patch's area element there (for a
+// triangle patch, v2 == v3, the map squeezes toward the apex), so the average is over the area.
+Vec3 averageTexture(const Scene& scene, const TextureRef& ref, const std::array<UV, 4>& uv, const std::array<Vec3, 4>& x) {
+  const Texture& t = scene.textures[ref.texture];
+  double extent = 0;
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b)
+      extent = std::max(extent, std::hypot((uv[a][0] - uv[b][0]) * t.width * ref.scale[0], (uv[a][1] - uv[b][1]) * t.height * ref.scale[1]));
+  const int m = std::clamp(int(std::ceil(extent)), 2, 64);
+  Vec3 sum{};
+  double weight = 0;
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < m; ++i) {
+      const double s = (i + 0.5) / m, r = (j + 0.5) / m;
+      const double w[4] = {(1 - s) * (1 - r), s * (1 - r), s * r, (1 - s) * r};
+      double u = 0, v = 0;
+      for (int k = 0; k < 4; ++k) {
+        u += w[k] * uv[k][0];
+        v += w[k] * uv[k][1];
+      }
+      const Vec3 ds = (x[1] - x[0]) * (1 - r) + (x[2] - x[3]) * r;
+      const Vec3 dr = (x[3] - x[0]) * (1 - s) + (x[2] - x[1]) * s;
+      const double area = length(cross(ds, dr));
+      sum += sampleTexture(scene, ref, u, v) * area;
+      weight += area;
+    }
+  return weight > 0 ? sum / weight : Vec3{1, 1, 1};
+}
+
+// A patch's reflectance and emission: the material's factors times its textures averaged over the
+// patch. `cornerUV(k, set)` gives corner k's TEXCOORD_set.
+template <typename CornerUV>
+void shade(const Scene& scene, const Primitive& prim, const PatchMesh& mesh, Patch& patch, const CornerUV& cornerUV) {
+  const Material& m = scene.materials[patch.material];
+  patch.reflectance = m.reflectance;
+  patch.emission = m.emission;
+  auto textured = [&](const TextureRef& ref) -> std::optional<Vec3> {
+    if (ref.texture < 0 || !hasTexcoords(prim, ref.texCoord)) return std::nullopt;
+    std::array<UV, 4> uv;
+    for (int k = 0; k < 4; ++k) uv[k] = cornerUV(k, ref.texCoord);
+    return averageTexture(scene, ref, uv, {mesh.positions[patch.v[0]], mesh.positions[patch.v[1]], mesh.positions[patch.v[2]], mesh.positions[patch.v[3]]});
+  };
+  if (auto t = textured(m.baseColorTexture)) {
+    patch.reflectance = {m.reflectance.x * t->x, m.reflectance.y * t->y, m.reflectance.z * t->z};
+    patch.shaded = true;
+  }
+  if (auto t = textured(m.emissiveTexture)) {
+    patch.emission = {m.emission.x * t->x, m.emission.y * t->y, m.emission.z * t->z};
+    patch.shaded = true;
+  }
+}
+
+// Patches not shaded by a texture carry their material's values; each vertex gets the
+// area-weighted mean of its patches' (exactly the patch value where they all agree).
+void finishShading(const Scene& scene, PatchMesh& mesh) {
+  for (Patch& p : mesh.patches)
+    if (!p.shaded) {
+      p.reflectance = scene.materials[p.material].reflectance;
+      p.emission = scene.materials[p.material].emission;
+    }
+  const size_t n = mesh.positions.size();
+  std::vector<Vec3> rho(n), emission(n);
+  std::vector<double> weight(n);
+  std::vector<bool> uniform(n, true);
+  mesh.vertexReflectance.assign(n, Vec3{});
+  mesh.vertexEmission.assign(n, Vec3{});
+  for (const Patch& p : mesh.patches)
+    for (int k = 0; k < 4; ++k) {
+      if (k == 3 && p.v[3] == p.v[2]) continue;
+      const uint32_t v = p.v[k];
+      if (weight[v] > 0 && !(mesh.vertexReflectance[v] == p.reflectance && mesh.vertexEmission[v] == p.emission)) uniform[v] = false;
+      mesh.vertexReflectance[v] = p.reflectance;
+      mesh.vertexEmission[v] = p.emission;
+      rho[v] += p.reflectance * p.area;
+      emission[v] += p.emission * p.area;
+      weight[v] += p.area;
+    }
+  for (size_t v = 0; v < n; ++v) {
+    if (weight[v] == 0) {
+      mesh.vertexReflectance[v] = scene.materials[mesh.vertexMaterial[v]].reflectance;
+      mesh.vertexEmission[v] = scene.materials[mesh.vertexMaterial[v]].emission;
+    } else if (!uniform[v]) {
+      mesh.vertexReflectance[v] = rho[v] / weight[v];
+      mesh.vertexEmission[v] = emission[v] / weight[v];
+    }
+  }
+}
+
 // A facet of a curved surface as patches. The form factors need planar patches (a non-planar quad
 // has no single front side, and a vertex can sit behind its best-fit plane while seeing it), so a
 // facet whose corners leave its plane by more than rounding becomes two planar triangles, split
@@ -168,7 +273,7 @@ bool addCurvedPatch(PatchMesh& mesh, const std::array<uint32_t, 4>& q, int mater
   for (const Vec3& x : c) offPlane = std::max(offPlane, std::abs(dot(x - centre, normal)) / diagonal);
   mesh.worstNonPlanarity = std::max(mesh.worstNonPlanarity, offPlane);
   if (q[2] == q[3] || offPlane <= kPlanarTolerance) {
-    mesh.patches.push_back({q, material, primitive, normal, 0.5 * length(area2)});
+    mesh.patches.push_back(makePatch(q, material, primitive, normal, 0.5 * length(area2)));
     return true;
   }
   ++mesh.splitFacets;
@@ -178,7 +283,7 @@ bool addCurvedPatch(PatchMesh& mesh, const std::array<uint32_t, 4>& q, int mater
   for (const auto& h : halves) {
     const Vec3 n2 = cross(c[h[1]] - c[h[0]], c[h[2]] - c[h[0]]);
     if (!(length(n2) > 0)) continue;
-    mesh.patches.push_back({{q[h[0]], q[h[1]], q[h[2]], q[h[2]]}, material, primitive, normalize(n2), 0.5 * length(n2)});
+    mesh.patches.push_back(makePatch({q[h[0]], q[h[1]], q[h[2]], q[h[2]]}, material, primitive, normalize(n2), 0.5 * length(n2)));
   }
   return true;
 }
@@ -268,7 +373,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
     bool keeps = true;
     const size_t firstPatch = mesh.patches.size();
     for (const Face& f : faces) {
-      Patch patch{{}, material, primIndex, f.normal, 0};
+      Patch patch = makePatch({}, material, primIndex, f.normal, 0);
       for (int k = 0; k < 4; ++k) {
         std::array<double, 4> w{};
         w[k] = 1;
@@ -278,6 +383,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
         patch.v[k] = pv;
       }
       patch.area = quadArea({prim.positions[f.q[0]], prim.positions[f.q[1]], prim.positions[f.q[2]], prim.positions[f.q[3]]});
+      shade(scene, prim, mesh, patch, [&](int k, int set) { return prim.texcoords[set][f.q[k]]; });
       mesh.patches.push_back(patch);
     }
     if (keeps) return;
@@ -316,24 +422,24 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
         else point = {corner[0] * w[0] + corner[1] * w[1] + corner[2] * w[2] + corner[3] * w[3], {2, uint32_t(fi), 0, i, j}};
         const uint32_t pv = welder.vertex(point.first, normalAt(f, w), material);
         grid[j * (n + 1) + i] = pv;
-        if (flat) {
-          gridSource[j * (n + 1) + i] = locate(prim, f, point.first);
-          continue;
-        }
+        gridSource[j * (n + 1) + i] = locate(prim, f, point.first);
+        if (flat) continue;
         auto [it, inserted] = outputIndex.try_emplace({point.second, pv}, uint32_t(out.patchVertex.size()));
         if (inserted) {
           out.patchVertex.push_back(pv);
-          out.source.push_back(locate(prim, f, point.first));
+          out.source.push_back(gridSource[j * (n + 1) + i]);
         }
         outGrid[j * (n + 1) + i] = it->second;
       }
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
         const int c0 = j * (n + 1) + i, c1 = c0 + 1, c2 = c0 + n + 2, c3 = c0 + n + 1;
-        Patch patch{{grid[c0], grid[c1], grid[c2], grid[c3]}, material, primIndex, f.normal, 0};
+        Patch patch = makePatch({grid[c0], grid[c1], grid[c2], grid[c3]}, material, primIndex, f.normal, 0);
         const bool collapsed = triangle && j == n - 1;  // the top row of a triangle: triangles
         patch.area = quadArea({mesh.positions[grid[c0]], mesh.positions[grid[c1]], mesh.positions[grid[c2]],
                                mesh.positions[grid[c3]]});
+        const int cornerGrid[4] = {c0, c1, c2, c3};
+        shade(scene, prim, mesh, patch, [&](int k, int set) { return uvAt(prim, set, gridSource[cornerGrid[k]]); });
         mesh.patches.push_back(patch);
         if (flat) {
           // Own output vertices per patch, so a viewer shows the patch's one value flat.
@@ -546,6 +652,7 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
     if (scene.materials[scene.primitives[p].material].doubleSided) addBackSides(mesh, welder, first);
   }
   tessellateBezier(scene, options, welder, mesh);
+  finishShading(scene, mesh);
   return mesh;
 }
 

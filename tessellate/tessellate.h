@@ -22,7 +22,20 @@ struct Patch {
   Vec3 normal;                // unit geometric normal (front side)
   double area = 0;
   bool backSide = false;      // the mirrored twin of a double-sided patch
+  // ρ and L⁰ of this patch: the material's factors times its textures averaged over the patch.
+  Vec3 reflectance, emission;
+  bool shaded = false;        // set from textures (else the material's values are filled in)
 };
+
+inline Patch makePatch(const std::array<uint32_t, 4>& v, int material, int primitive, const Vec3& normal, double area) {
+  Patch p;
+  p.v = v;
+  p.material = material;
+  p.primitive = primitive;
+  p.normal = normal;
+  p.area = area;
+  return p;
+}
 
 // Where an output vertex lies on its source primitive: a triangle and barycentric weights.
 struct SurfacePoint {
@@ -56,6 +69,7 @@ struct PatchMesh {
   std::vector<Vec3> positions;  // welded patch vertices
   std::vector<Vec3> normals;    // unit, the receiving orientation of each vertex
   std::vector<int> vertexMaterial;
+  std::vector<Vec3> vertexReflectance, vertexEmission;  // area-weighted means of the patches around
   std::vector<Patch> patches;
   std::vector<PrimitivePatches> primitives;  // parallel to Scene::primitives
   std::vector<GeneratedSurface> generated;   // from Scene::bezierPatches

@@ -1,0 +1,73 @@
+// Color textures: decoding (stb_image, Debian's libstb) and sampling.
+#include <stb/stb_image.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "importers/importers.h"
+#include "importers/texture.h"
+
+namespace radbake {
+namespace {
+
+constexpr int kClampToEdge = 33071;
+constexpr int kMirroredRepeat = 33648;
+
+// sRGB transfer function, decoded to linear (IEC 61966-2-1).
+float srgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+
+int wrap(int i, int n, int mode) {
+  if (mode == kClampToEdge) return std::clamp(i, 0, n - 1);
+  if (mode == kMirroredRepeat) {
+    const int period = 2 * n;
+    int m = ((i % period) + period) % period;
+    return m < n ? m : period - 1 - m;
+  }
+  return ((i % n) + n) % n;
+}
+
+}  // namespace
+
+bool decodeColorTexture(const std::vector<unsigned char>& encoded, Texture& out, std::string& error) {
+  int w = 0, h = 0, channels = 0;
+  if (encoded.empty() || encoded.size() > size_t(INT32_MAX)) {
+    error = "empty or oversized image";
+    return false;
+  }
+  stbi_uc* pixels = stbi_load_from_memory(encoded.data(), int(encoded.size()), &w, &h, &channels, 3);
+  if (!pixels) {
+    error = stbi_failure_reason() ? stbi_failure_reason() : "cannot decode";
+    return false;
+  }
+  out.width = w;
+  out.height = h;
+  out.rgb.resize(size_t(w) * h * 3);
+  float table[256];
+  for (int i = 0; i < 256; ++i) table[i] = srgbToLinear(i / 255.0f);
+  for (size_t i = 0; i < out.rgb.size(); ++i) out.rgb[i] = table[pixels[i]];
+  stbi_image_free(pixels);
+  return true;
+}
+
+Vec3 sampleTexture(const Scene& scene, const TextureRef& ref, double u, double v) {
+  if (ref.texture < 0 || ref.texture >= int(scene.textures.size())) return {1, 1, 1};
+  const Texture& t = scene.textures[ref.texture];
+  if (t.width <= 0 || t.height <= 0) return {1, 1, 1};
+  // KHR_texture_transform: scale, then rotate, then offset.
+  const double c = std::cos(ref.rotation), s = std::sin(ref.rotation);
+  const double su = u * ref.scale[0], sv = v * ref.scale[1];
+  const double tu = c * su + s * sv + ref.offset[0], tv = -s * su + c * sv + ref.offset[1];
+  // Texel centres at (i + 0.5) / width.
+  const double x = tu * t.width - 0.5, y = tv * t.height - 0.5;
+  const double fx = std::floor(x), fy = std::floor(y);
+  const double ax = x - fx, ay = y - fy;
+  auto texel = [&](int i, int j) {
+    const size_t k = (size_t(wrap(j, t.height, t.wrapT)) * t.width + wrap(i, t.width, t.wrapS)) * 3;
+    return Vec3{t.rgb[k], t.rgb[k + 1], t.rgb[k + 2]};
+  };
+  const int i = int(fx), j = int(fy);
+  return texel(i, j) * ((1 - ax) * (1 - ay)) + texel(i + 1, j) * (ax * (1 - ay)) + texel(i, j + 1) * ((1 - ax) * ay) +
+         texel(i + 1, j + 1) * (ax * ay);
+}
+
+}  // namespace radbake
