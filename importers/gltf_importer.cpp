@@ -486,6 +486,10 @@ struct Importer {
     if (prim.indices >= 0) {
       const auto& ia = m.accessors[prim.indices];
       if (ia.type != TINYGLTF_TYPE_SCALAR) ctx.invalid(what + ": indices accessor " + std::to_string(prim.indices) + " is not SCALAR");
+      if (ia.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ia.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+          ia.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        ctx.invalid(what + ": indices accessor " + std::to_string(prim.indices) + " must have an unsigned integer componentType");
+      if (ia.normalized) ctx.invalid(what + ": indices accessor " + std::to_string(prim.indices) + " must not be normalized");
       const std::vector<double> raw = readAccessor(ctx, m, prim.indices, what + " indices");
       idx.reserve(raw.size());
       for (size_t i = 0; i < raw.size(); ++i) {
@@ -737,7 +741,12 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
   decodeTextures(ctx, m, scene);
 
   Importer importer{ctx, m, scene, {}};
-  const int sceneIndex = m.defaultScene >= 0 ? m.defaultScene : (m.scenes.empty() ? -1 : 0);
+  int sceneIndex = m.defaultScene >= 0 ? m.defaultScene : (m.scenes.empty() ? -1 : 0);
+  if (options.scene >= 0) {
+    if (options.scene >= int(m.scenes.size()))
+      ctx.fail(ExitCode::kUsage, "--scene " + std::to_string(options.scene) + ": the file has " + std::to_string(m.scenes.size()) + " scenes");
+    sceneIndex = options.scene;
+  }
   if (sceneIndex >= 0)
     for (int root : m.scenes[sceneIndex].nodes) importer.visit(root, kIdentity);
   if (!m.skins.empty()) ctx.warn("skins are baked at rest pose (" + std::to_string(m.skins.size()) + " skin(s))");

@@ -126,6 +126,7 @@ struct Scene {
 struct ImportOptions {
   // false (radbake info): report extensions radbake cannot bake instead of failing on them.
   bool requireSupportedExtensions = true;
+  int scene = -1;  // the glTF scene to bake; -1: the document's default scene (or the first)
 };
 
 // The texture's color at (u, v) after the reference's transform: bilinear filtering, the sampler's

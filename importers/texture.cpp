@@ -56,7 +56,12 @@ Vec3 sampleTexture(const Scene& scene, const TextureRef& ref, double u, double v
   // KHR_texture_transform: scale, then rotate, then offset.
   const double c = std::cos(ref.rotation), s = std::sin(ref.rotation);
   const double su = u * ref.scale[0], sv = v * ref.scale[1];
-  const double tu = c * su + s * sv + ref.offset[0], tv = -s * su + c * sv + ref.offset[1];
+  double tu = c * su + s * sv + ref.offset[0], tv = -s * su + c * sv + ref.offset[1];
+  if (!std::isfinite(tu) || !std::isfinite(tv)) return {1, 1, 1};
+  // Bring far-away coordinates near the origin (period 2 keeps mirrored repeat right) so the
+  // texel index fits an int.
+  if (std::abs(tu) > 1e6) tu = std::fmod(tu, 2.0);
+  if (std::abs(tv) > 1e6) tv = std::fmod(tv, 2.0);
   // Texel centres at (i + 0.5) / width.
   const double x = tu * t.width - 0.5, y = tv * t.height - 0.5;
   const double fx = std::floor(x), fy = std::floor(y);

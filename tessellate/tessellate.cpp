@@ -2,6 +2,7 @@
 #include "tessellate/subdivision.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <limits>
 #include <bit>
 #include <cmath>
@@ -14,6 +15,8 @@ namespace radbake {
 namespace {
 
 constexpr uint32_t kUnused = UINT32_MAX;
+constexpr int kMaxRate = 4096;                 // per face edge, as --subdivide allows
+constexpr size_t kMaxPatches = size_t(1) << 24;  // 16.7M patches: past this a bake cannot finish
 
 // Welding: exact position bits (edge points are computed canonically, so coincident points are
 // bit-identical) and the material; among vertices at that point, the first whose normal is within
@@ -66,7 +69,7 @@ int subdivisionFor(const Primitive& prim, const TessellateOptions& options) {
     for (const auto& t : prim.triangles)
       for (int e = 0; e < 3; ++e)
         longest = std::max(longest, length(prim.positions[t[(e + 1) % 3]] - prim.positions[t[e]]));
-    n = std::max(n, int(std::ceil(longest / options.maxEdgeLength - 1e-9)));
+    n = std::max(n, int(std::clamp(std::ceil(longest / options.maxEdgeLength - 1e-9), 1.0, double(kMaxRate))));
   }
   return n;
 }
@@ -176,7 +179,7 @@ Vec3 averageTexture(const Scene& scene, const TextureRef& ref, const std::array<
   for (int a = 0; a < 4; ++a)
     for (int b = a + 1; b < 4; ++b)
       extent = std::max(extent, std::hypot((uv[a][0] - uv[b][0]) * t.width * ref.scale[0], (uv[a][1] - uv[b][1]) * t.height * ref.scale[1]));
-  const int m = std::clamp(int(std::ceil(extent)), 2, 64);
+  const int m = int(std::clamp(std::ceil(extent), 2.0, 64.0));  // extent may be huge or NaN-free but absurd
   Vec3 sum{};
   double weight = 0;
   for (int j = 0; j < m; ++j)
@@ -326,9 +329,10 @@ void tessellateSubdivided(const Scene& scene, int primIndex, SubdivisionScheme s
   }
   const double size = length(hi - lo);
   const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * size;
-  int rate = std::max(options.subdivide, int(std::ceil(longestEdge / std::sqrt(8 * (size / 2) * chord))));
-  if (options.maxEdgeLength > 0) rate = std::max(rate, int(std::ceil(longestEdge / options.maxEdgeLength)));
-  rate = std::clamp(rate, 1, 256);
+  // Rates are computed in double and clamped before becoming ints: absurd geometry must not overflow.
+  double wanted = std::max(double(options.subdivide), std::ceil(longestEdge / std::sqrt(8 * (size / 2) * chord)));
+  if (options.maxEdgeLength > 0) wanted = std::max(wanted, std::ceil(longestEdge / options.maxEdgeLength));
+  const int rate = int(std::clamp(wanted, 1.0, 256.0));
   mesh.curvedRate = std::max(mesh.curvedRate, rate);
 
   const LimitTessellation limit = tessellateLimitSurface(cage, cageFaces, scheme, rate);
@@ -642,6 +646,11 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   Welder welder{mesh, {}};
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
     const size_t first = mesh.patches.size();
+    const double rate = subdivisionFor(scene.primitives[p], options);
+    if (double(scene.primitives[p].triangles.size()) * rate * rate + double(mesh.patches.size()) > double(kMaxPatches))
+      throw Error(ExitCode::kUnsupported, std::filesystem::path(scene.path).filename().string() + ": mesh " +
+                                              std::to_string(scene.primitives[p].mesh) + " would need more than " +
+                                              std::to_string(kMaxPatches) + " patches at this subdivision");
     const SubdivisionScheme scheme = scene.primitives[p].subdivision != SubdivisionScheme::kNone
                                          ? scene.primitives[p].subdivision
                                          : options.subdivisionSurfaces;

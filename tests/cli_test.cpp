@@ -754,6 +754,23 @@ TEST(Fuzz, CrashesFoundByFuzzingStayFixed) {
   // The first one: an image's buffer view one byte past its buffer, which tinygltf read past.
   const RunResult r = radbake({"bake", (dir / "image_view_past_buffer.glb").string(), "-o", (tempDir() / "f.glb").string()});
   EXPECT_EQ(r.err, "error: image_view_past_buffer.glb: /bufferViews/3: bytes up to 3273 exceed buffer 0 byteLength 3272\n");
+  // The second: signed (SHORT) indices, whose negative values became huge vertex indices.
+  const RunResult s = radbake({"bake", (dir / "signed_indices.gltf").string(), "-o", (tempDir() / "f.glb").string()});
+  EXPECT_EQ(s.err, "error: signed_indices.gltf: mesh 3 primitive 0: indices accessor 11 must have an unsigned integer componentType\n");
+}
+
+TEST(Cli, SceneChoosesTheGltfScene) {
+  const std::string in = (kShared / "scenes" / "cornell_box.gltf").string();
+  EXPECT_EQ(radbake({"bake", in, "-o", (tempDir() / "s0.glb").string(), "--scene", "0", "-q"}).code, 0);
+  const RunResult r = radbake({"bake", in, "-o", (tempDir() / "s3.glb").string(), "--scene", "3"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "error: cornell_box.gltf: --scene 3: the file has 1 scenes\n");
+}
+
+TEST(Info, ListsMeshesWithTheirInstances) {
+  const RunResult r = radbake({"info", (kShared / "scenes" / "nested_nodes.gltf").string()});
+  ASSERT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("mesh 0: 6 instance(s), 12 triangles baked"), std::string::npos) << r.out;
 }
 
 TEST(Cli, UsageErrorsAreExit1) {

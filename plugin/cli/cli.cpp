@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <iostream>
 #include <sstream>
 #include <unistd.h>
@@ -168,6 +169,14 @@ void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
     for (const auto& e : scene.extensionsUsed) out << " " << e;
     out << "\n";
   }
+  std::map<int, std::pair<int, long long>> perMesh;  // mesh → (instances, triangles)
+  for (const Primitive& p : scene.primitives) {
+    auto& entry = perMesh[p.mesh];
+    if (p.primitive == 0) ++entry.first;
+    entry.second += p.triangles.size();
+  }
+  for (const auto& [mesh, entry] : perMesh)
+    out << "  mesh " << mesh << ": " << entry.first << " instance(s), " << entry.second << " triangles baked\n";
   for (const Material& m : scene.materials) {
     bool used = false;
     for (const Primitive& p : scene.primitives) used |= &scene.materials[p.material] == &m;
@@ -211,7 +220,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
 
   const auto t0 = Clock::now();
   progress.stage("import");
-  Scene scene = importScene(options.input);
+  ImportOptions importOptions;
+  importOptions.scene = options.scene;
+  Scene scene = importScene(options.input, importOptions);
   if (!scene.hasEmitter())
     scene.warnings.push_back(std::filesystem::path(options.input).filename().string() +
                              ": no emitter (no emissive material): the bake is black");
@@ -293,6 +304,8 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
                       "treat every mesh as a subdivision surface: catmull-clark or loop (meshes can also be flagged "
                       "in their extras, see docs/subdivision.md)")
       ->check(CLI::IsMember({"catmull-clark", "loop"}));
+  bakeCmd->add_option("--scene", o.scene, "the glTF scene to bake (default: the file's default scene)")
+      ->check(CLI::NonNegativeNumber);
   bakeCmd->add_option("--lightmap", o.lightmap, "also write an HDR lightmap atlas (.exr)");
   bakeCmd->add_option("--exposure", o.exposure, "exposure in EV for COLOR_0 and previews");
   bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0");

@@ -21,6 +21,7 @@ struct Options {
   double maxEdge = 0;
   double maxChord = 0;
   std::string subdivisionSurfaces;  // "", "catmull-clark" or "loop"
+  int scene = -1;                   // --scene N
   std::string lightmap;
   std::optional<double> exposure;
   std::string view, display, ocioConfig;
