@@ -68,6 +68,20 @@ int appendFloatAccessor(tinygltf::Model& m, const std::vector<float>& values, in
   return int(m.accessors.size()) - 1;
 }
 
+// A 32-bit index accessor for a triangle list.
+int appendIndexAccessor(tinygltf::Model& m, const std::vector<std::array<uint32_t, 3>>& triangles) {
+  std::vector<uint32_t> indices;
+  indices.reserve(triangles.size() * 3);
+  for (const auto& t : triangles) indices.insert(indices.end(), t.begin(), t.end());
+  tinygltf::Accessor ia;
+  ia.bufferView = appendView(m, indices.data(), indices.size() * 4, kElementArrayBuffer);
+  ia.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  ia.type = TINYGLTF_TYPE_SCALAR;
+  ia.count = indices.size();
+  m.accessors.push_back(ia);
+  return int(m.accessors.size()) - 1;
+}
+
 // One buffer holding every byte: GLB allows a single binary chunk, and a .gltf output should not
 // depend on files beside the input. Buffer views keep their alignment (buffers start 8-aligned).
 void consolidateBuffers(tinygltf::Model& m) {
@@ -228,15 +242,7 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
       out.attributes[semantic] = appendFloatAccessor(m, values, acc.type, comps, semantic == "POSITION");
     }
   }
-  std::vector<uint32_t> indices;
-  for (const auto& t : patches.triangles) indices.insert(indices.end(), t.begin(), t.end());
-  tinygltf::Accessor ia;
-  ia.bufferView = appendView(m, indices.data(), indices.size() * 4, kElementArrayBuffer);
-  ia.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
-  ia.type = TINYGLTF_TYPE_SCALAR;
-  ia.count = indices.size();
-  m.accessors.push_back(ia);
-  out.indices = int(m.accessors.size()) - 1;
+  out.indices = appendIndexAccessor(m, patches.triangles);
   return out;
 }
 
@@ -264,15 +270,7 @@ void addGeneratedSurface(tinygltf::Model& m, const Scene& scene, const PatchMesh
   prim.material = int(m.materials.size()) - 1;
   prim.attributes["POSITION"] = appendFloatAccessor(m, positions, TINYGLTF_TYPE_VEC3, 3, true);
   prim.attributes["NORMAL"] = appendFloatAccessor(m, normals, TINYGLTF_TYPE_VEC3, 3, false);
-  std::vector<uint32_t> indices;
-  for (const auto& t : surface.triangles) indices.insert(indices.end(), t.begin(), t.end());
-  tinygltf::Accessor ia;
-  ia.bufferView = appendView(m, indices.data(), indices.size() * 4, kElementArrayBuffer);
-  ia.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
-  ia.type = TINYGLTF_TYPE_SCALAR;
-  ia.count = indices.size();
-  m.accessors.push_back(ia);
-  prim.indices = int(m.accessors.size()) - 1;
+  prim.indices = appendIndexAccessor(m, surface.triangles);
   addBakeAttributes(m, prim, radiance);
 
   tinygltf::Mesh out;

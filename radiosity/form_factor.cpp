@@ -267,6 +267,18 @@ NearestPoint nearestPoint(const QuadMap& m, const Vec3& normal, const Vec3& p) {
 // Gauss-Legendre rules (nodes on [-1,1]), built once by Newton iteration on
 // the Legendre recurrence.
 
+// P_n(x) and its derivative, by the three-term recurrence.
+void legendre(int n, double x, double& p, double& dp) {
+  double p0 = 1, p1 = x;
+  for (int k = 2; k <= n; ++k) {
+    const double p2 = ((2 * k - 1) * x * p1 - (k - 1) * p0) / k;
+    p0 = p1;
+    p1 = p2;
+  }
+  p = p1;
+  dp = n * (x * p1 - p0) / (x * x - 1);
+}
+
 struct GaussRule {
   std::vector<double> x, w;
 };
@@ -280,28 +292,14 @@ const GaussRule& gaussRule(int m) {
       r.w.resize(n);
       for (int i = 0; i < n; ++i) {
         double x = std::cos(kPi * (i + 0.75) / (n + 0.5));
-        double dp = 1;
+        double p = 0, dp = 1;
         for (int it = 0; it < 100; ++it) {
-          double p0 = 1, p1 = x;
-          for (int k = 2; k <= n; ++k) {
-            const double p2 = ((2 * k - 1) * x * p1 - (k - 1) * p0) / k;
-            p0 = p1;
-            p1 = p2;
-          }
-          dp = n * (x * p1 - p0) / (x * x - 1);
-          const double dx = p1 / dp;
+          legendre(n, x, p, dp);
+          const double dx = p / dp;
           x -= dx;
           if (std::abs(dx) < 1e-16) break;
         }
-        {
-          double p0 = 1, p1 = x;
-          for (int k = 2; k <= n; ++k) {
-            const double p2 = ((2 * k - 1) * x * p1 - (k - 1) * p0) / k;
-            p0 = p1;
-            p1 = p2;
-          }
-          dp = n * (x * p1 - p0) / (x * x - 1);
-        }
+        legendre(n, x, p, dp);
         r.x[i] = x;
         r.w[i] = 2 / ((1 - x * x) * dp * dp);
       }
