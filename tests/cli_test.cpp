@@ -446,6 +446,22 @@ std::string litPlateGltf(const std::string& lightJson, const std::string& transl
     "buffers":[{"byteLength":144,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
 }
 
+// The red channel of each row of a --probe-out file (x,y,z,r,g,b with a header).
+std::vector<double> probeRed(const fs::path& values) {
+  std::ifstream in(values);
+  std::string line;
+  std::getline(in, line);
+  std::vector<double> red;
+  while (std::getline(in, line)) {
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream f(line);
+    double x, y, z, r;
+    f >> x >> y >> z >> r;
+    red.push_back(r);
+  }
+  return red;
+}
+
 // Bakes `gltf` with --subdivide 2 (a vertex at the plate's centre) and probes the listed points
 // (facing up); returns the red channel at each.
 std::vector<double> probePlate(const std::string& gltf, const std::vector<std::pair<double, double>>& xz) {
@@ -459,18 +475,7 @@ std::vector<double> probePlate(const std::string& gltf, const std::vector<std::p
   const RunResult r = radbake({"bake", in.string(), "-o", (dir / "plate.glb").string(), "--subdivide", "2", "--probe",
                                probes.string(), "--probe-out", values.string(), "-q"});
   EXPECT_EQ(r.code, 0) << r.err;
-  std::ifstream in2(values);
-  std::string line;
-  std::getline(in2, line);
-  std::vector<double> red;
-  while (std::getline(in2, line)) {
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream f(line);
-    double x, y, z, rr;
-    f >> x >> y >> z >> rr;
-    red.push_back(rr);
-  }
-  return red;
+  return probeRed(values);
 }
 
 constexpr double kPi = 3.14159265358979323846;
@@ -721,17 +726,7 @@ TEST(Textures, BaseColorTextureIsAveragedOverEachPatch) {
   const RunResult r = radbake({"bake", in.string(), "-o", (dir / "textured.glb").string(), "--method", "constant",
                                "--subdivide", "2", "--probe", probes.string(), "--probe-out", values.string(), "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
-  std::ifstream result(values);
-  std::string line;
-  std::getline(result, line);
-  std::vector<double> red;
-  while (std::getline(result, line)) {
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream f(line);
-    double x, y, z, v;
-    f >> x >> y >> z >> v;
-    red.push_back(v);
-  }
+  const std::vector<double> red = probeRed(values);
   ASSERT_EQ(red.size(), 2u);
   EXPECT_NEAR(red[0], 0.75 * 3 / kPi, 1e-9);
   EXPECT_NEAR(red[1], 0.25 * 3 / kPi, 1e-9);
