@@ -86,6 +86,19 @@ TEST(Importer, MissingNormalsBecomeFlatNormals) {
   EXPECT_TRUE(sawNoNormals);
 }
 
+TEST(Importer, NormalizedQuantizedPositions) {
+  // KHR_mesh_quantization: POSITION as normalized UNSIGNED_SHORT with a byte stride of 8;
+  // 65535 reads as exactly 1, then the node scales by 2.
+  const Scene scene = importScene(std::string(RADBAKE_SOURCE_DIR) + "/tests/data/quantized_triangle.gltf");
+  ASSERT_EQ(scene.primitives.size(), 1u);
+  const Primitive& p = scene.primitives[0];
+  ASSERT_EQ(p.positions.size(), 3u);
+  EXPECT_EQ(p.positions[1], (Vec3{0, 0, 2}));
+  EXPECT_EQ(p.positions[2], (Vec3{2, 0, 0}));
+  ASSERT_EQ(p.triangles.size(), 1u);
+  EXPECT_NEAR(p.normals[0].y, 1.0, 1e-12);  // no NORMAL: flat, from the winding
+}
+
 TEST(Importer, ErrorsCarryExitCodes) {
   try {
     importScene("/nonexistent.glb");
