@@ -695,13 +695,13 @@ std::string base64Bytes(const std::string& bytes) {
   return encoded;
 }
 
-TEST(Textures, BaseColorTextureIsAveragedOverEachPatch) {
-  // A 2×1 texture, white then black (sRGB 255 and 0 = linear 1 and 0), stretched once over the
-  // plate (u = (x+1)/2). Bilinear filtering with REPEAT makes it a triangle wave between the texel
-  // centres: its mean over the left half (u in [0, ½]) is ¾, over the right half ¼. Under 3 lux
-  // straight down, a constant patch holds ρ·E/π = ρ·3/π.
+// An indexed 2×2 plate (one quad) textured with a 2×1 texture, white then black (sRGB 255 and 0 =
+// linear 1 and 0), stretched once over it (u = (x+1)/2), under 3 lux straight down. Baked with
+// the constant method at --subdivide 2; returns the red radiance of the left and right halves.
+// Bilinear filtering with REPEAT makes the texture a triangle wave between the texel centres:
+// its mean over the left half (u in [0, ½]) is ¾, over the right half ¼.
+std::vector<double> bakeTexturedPlate(const std::string& materialJson) {
   const std::string png = tinyPng(2, 1, {255, 255, 255, 0, 0, 0});
-  // An indexed plate: 4 shared corners, so its two triangles make one quad, split 2×2.
   std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, -1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0};
   const uint16_t indices[6] = {0, 1, 2, 0, 2, 3};
   std::memcpy(data.data() + 20, indices, sizeof indices);
@@ -712,7 +712,7 @@ TEST(Textures, BaseColorTextureIsAveragedOverEachPatch) {
     "nodes":[{"mesh":0},{"rotation":[-)" + std::to_string(h) + ",0,0," + std::to_string(h) + R"(],
               "extensions":{"KHR_lights_punctual":{"light":0}}}],
     "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
-    "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}}],
+    "materials":[)" + materialJson + R"(],
     "textures":[{"source":0}],
     "images":[{"uri":"data:image/png;base64,)" + base64Bytes(png) + R"("}],
     "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
@@ -725,11 +725,34 @@ TEST(Textures, BaseColorTextureIsAveragedOverEachPatch) {
   std::ofstream(probes) << "x,y,z,nx,ny,nz\n-0.5,0,0.3,0,1,0\n0.5,0,-0.3,0,1,0\n";
   const RunResult r = radbake({"bake", in.string(), "-o", (dir / "textured.glb").string(), "--method", "constant",
                                "--subdivide", "2", "--probe", probes.string(), "--probe-out", values.string(), "-q"});
-  ASSERT_EQ(r.code, 0) << r.err;
-  const std::vector<double> red = probeRed(values);
+  EXPECT_EQ(r.code, 0) << r.err;
+  return probeRed(values);
+}
+
+TEST(Textures, BaseColorTextureIsAveragedOverEachPatch) {
+  // A constant patch holds ρ·E/π = ρ·3/π.
+  const auto red = bakeTexturedPlate(R"({"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}})");
   ASSERT_EQ(red.size(), 2u);
   EXPECT_NEAR(red[0], 0.75 * 3 / kPi, 1e-9);
   EXPECT_NEAR(red[1], 0.25 * 3 / kPi, 1e-9);
+}
+
+TEST(Textures, EmissiveTextureTimesStrength) {
+  // Black (ρ 0), emitting emissiveFactor × texture × KHR_materials_emissive_strength 4: L = L⁰.
+  const auto red = bakeTexturedPlate(
+      R"({"pbrMetallicRoughness":{"baseColorFactor":[0,0,0,1],"metallicFactor":0},"emissiveFactor":[1,1,1],
+          "emissiveTexture":{"index":0},"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":4}}})");
+  ASSERT_EQ(red.size(), 2u);
+  EXPECT_NEAR(red[0], 0.75 * 4, 1e-9);
+  EXPECT_NEAR(red[1], 0.25 * 4, 1e-9);
+}
+
+TEST(Materials, MetalsReflectNoDiffuseLight) {
+  // metallicFactor 1: no diffuse reflection at all; 0.5: half of the base color's.
+  const auto metal = bakeTexturedPlate(R"({"pbrMetallicRoughness":{"metallicFactor":1}})");
+  EXPECT_EQ(metal[0], 0.0);
+  const auto half = bakeTexturedPlate(R"({"pbrMetallicRoughness":{"baseColorFactor":[0.8,0.8,0.8,1],"metallicFactor":0.5}})");
+  EXPECT_NEAR(half[0], 0.8 * 0.5 * 3 / kPi, 1e-9);
 }
 
 TEST(Fuzz, CrashesFoundByFuzzingStayFixed) {
@@ -844,6 +867,7 @@ TEST(Assets, EveryValidAssetBakes) {
   // out of scope (Draco); each warning is said once.
   std::ifstream indexFile(kShared / "assets" / "index.json");
   const json index = json::parse(indexFile);
+  std::vector<fs::path> baked;
   for (const auto& entry : index["valid"]) {
     const fs::path file = kShared / "assets" / "valid" / entry["file"].get<std::string>();
     const fs::path out = tempDir() / (entry["model"].get<std::string>() + "_bake.glb");
@@ -857,7 +881,11 @@ TEST(Assets, EveryValidAssetBakes) {
     }
     EXPECT_EQ(r.code, 0) << file << ": " << r.err;
     EXPECT_TRUE(fs::exists(out)) << file;
+    baked.push_back(out);
   }
+  if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed";
+  std::string log;
+  EXPECT_EQ(runValidator(baked, &log), 0) << log;
 }
 
 }  // namespace
