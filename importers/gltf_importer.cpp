@@ -400,6 +400,9 @@ Material readMaterial(const tinygltf::Material& mat, int index) {
   if (mat.emissiveFactor.size() >= 3)
     out.emission = Vec3{mat.emissiveFactor[0], mat.emissiveFactor[1], mat.emissiveFactor[2]} * strength;
   out.doubleSided = mat.doubleSided;
+  out.alphaMask = mat.alphaMode == "MASK";
+  out.alphaCutoff = mat.alphaCutoff;
+  if (pbr.baseColorFactor.size() == 4) out.baseAlpha = pbr.baseColorFactor[3];
   out.baseColorTexture = readTextureRef(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, pbr.baseColorTexture.extensions);
   out.emissiveTexture = readTextureRef(mat.emissiveTexture.index, mat.emissiveTexture.texCoord, mat.emissiveTexture.extensions);
   return out;

@@ -39,6 +39,7 @@ class Error : public std::runtime_error {
 struct Texture {
   int width = 0, height = 0;
   std::vector<float> rgb;
+  std::vector<float> alpha;  // linear, one per texel
   int wrapS = 10497, wrapT = 10497;  // glTF sampler wrap modes (REPEAT by default)
 };
 
@@ -56,6 +57,9 @@ struct Material {
   Vec3 reflectance{1, 1, 1};      // ρ = baseColorFactor (linear); 0 for metals
   Vec3 emission{0, 0, 0};         // L⁰ = emissiveFactor × KHR_materials_emissive_strength
   bool doubleSided = false;
+  bool alphaMask = false;         // alphaMode MASK: cut out where alpha < alphaCutoff
+  double alphaCutoff = 0.5;
+  double baseAlpha = 1;           // baseColorFactor's alpha
   TextureRef baseColorTexture;    // multiplies the reflectance
   TextureRef emissiveTexture;     // multiplies the emission
 };
@@ -132,6 +136,9 @@ struct ImportOptions {
 // The texture's color at (u, v) after the reference's transform: bilinear filtering, the sampler's
 // wrap modes. (1, 1, 1) when the reference has no texture.
 Vec3 sampleTexture(const Scene& scene, const TextureRef& ref, double u, double v);
+
+// The texture's alpha at (u, v) (nearest texel, after the transform); 1 without a texture.
+double sampleAlpha(const Scene& scene, const TextureRef& ref, double u, double v);
 
 // Reads INPUT (.gltf, .glb or .bpt). A .bpt (Bezier patches, z up) is turned to glTF's y up,
 // (x, y, z) → (x, z, −y), and given one white material (ρ 0.8). Throws Error (exit 2 invalid, 3 unsupported) with one line naming

@@ -34,7 +34,7 @@ bool decodeColorTexture(const std::vector<unsigned char>& encoded, Texture& out,
     error = "empty or oversized image";
     return false;
   }
-  stbi_uc* pixels = stbi_load_from_memory(encoded.data(), int(encoded.size()), &w, &h, &channels, 3);
+  stbi_uc* pixels = stbi_load_from_memory(encoded.data(), int(encoded.size()), &w, &h, &channels, 4);
   if (!pixels) {
     error = stbi_failure_reason() ? stbi_failure_reason() : "cannot decode";
     return false;
@@ -42,27 +42,42 @@ bool decodeColorTexture(const std::vector<unsigned char>& encoded, Texture& out,
   out.width = w;
   out.height = h;
   out.rgb.resize(size_t(w) * h * 3);
+  out.alpha.resize(size_t(w) * h);
   float table[256];
   for (int i = 0; i < 256; ++i) table[i] = srgbToLinear(i / 255.0f);
-  for (size_t i = 0; i < out.rgb.size(); ++i) out.rgb[i] = table[pixels[i]];
+  for (size_t i = 0; i < out.alpha.size(); ++i) {
+    for (int c = 0; c < 3; ++c) out.rgb[3 * i + c] = table[pixels[4 * i + c]];
+    out.alpha[i] = pixels[4 * i + 3] / 255.0f;  // alpha is linear in glTF
+  }
   stbi_image_free(pixels);
   return true;
 }
 
-Vec3 sampleTexture(const Scene& scene, const TextureRef& ref, double u, double v) {
-  if (ref.texture < 0 || ref.texture >= int(scene.textures.size())) return {1, 1, 1};
-  const Texture& t = scene.textures[ref.texture];
-  if (t.width <= 0 || t.height <= 0) return {1, 1, 1};
-  // KHR_texture_transform: scale, then rotate, then offset.
+// Texture coordinates after KHR_texture_transform, brought near the origin (period 2 keeps
+// mirrored repeat right) so texel indices fit an int; false for non-finite coordinates.
+static bool transformUV(const TextureRef& ref, double u, double v, double& tu, double& tv) {
   const double c = std::cos(ref.rotation), s = std::sin(ref.rotation);
   const double su = u * ref.scale[0], sv = v * ref.scale[1];
-  double tu = c * su + s * sv + ref.offset[0], tv = -s * su + c * sv + ref.offset[1];
-  if (!std::isfinite(tu) || !std::isfinite(tv)) return {1, 1, 1};
-  // Bring far-away coordinates near the origin (period 2 keeps mirrored repeat right) so the
-  // texel index fits an int.
+  tu = c * su + s * sv + ref.offset[0];
+  tv = -s * su + c * sv + ref.offset[1];
+  if (!std::isfinite(tu) || !std::isfinite(tv)) return false;
   if (std::abs(tu) > 1e6) tu = std::fmod(tu, 2.0);
   if (std::abs(tv) > 1e6) tv = std::fmod(tv, 2.0);
-  // Texel centres at (i + 0.5) / width.
+  return true;
+}
+
+static const Texture* textureOf(const Scene& scene, const TextureRef& ref) {
+  if (ref.texture < 0 || ref.texture >= int(scene.textures.size())) return nullptr;
+  const Texture& t = scene.textures[ref.texture];
+  return t.width > 0 && t.height > 0 ? &t : nullptr;
+}
+
+Vec3 sampleTexture(const Scene& scene, const TextureRef& ref, double u, double v) {
+  const Texture* tex = textureOf(scene, ref);
+  double tu, tv;
+  if (!tex || !transformUV(ref, u, v, tu, tv)) return {1, 1, 1};
+  const Texture& t = *tex;
+  // Texel centres at (i + 0.5) / width; bilinear filtering.
   const double x = tu * t.width - 0.5, y = tv * t.height - 0.5;
   const double fx = std::floor(x), fy = std::floor(y);
   const double ax = x - fx, ay = y - fy;
@@ -73,6 +88,15 @@ Vec3 sampleTexture(const Scene& scene, const TextureRef& ref, double u, double v
   const int i = int(fx), j = int(fy);
   return texel(i, j) * ((1 - ax) * (1 - ay)) + texel(i + 1, j) * (ax * (1 - ay)) + texel(i, j + 1) * ((1 - ax) * ay) +
          texel(i + 1, j + 1) * (ax * ay);
+}
+
+double sampleAlpha(const Scene& scene, const TextureRef& ref, double u, double v) {
+  const Texture* tex = textureOf(scene, ref);
+  double tu, tv;
+  if (!tex || tex->alpha.empty() || !transformUV(ref, u, v, tu, tv)) return 1;
+  const int i = wrap(int(std::floor(tu * tex->width)), tex->width, tex->wrapS);
+  const int j = wrap(int(std::floor(tv * tex->height)), tex->height, tex->wrapT);
+  return tex->alpha[size_t(j) * tex->width + i];
 }
 
 }  // namespace radbake

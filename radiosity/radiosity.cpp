@@ -495,13 +495,33 @@ bool anyLight(const std::vector<Vec3>& source) {
   return std::any_of(source.begin(), source.end(), [](const Vec3& v) { return v.x != 0 || v.y != 0 || v.z != 0; });
 }
 
+// Whether light passes a cut-out patch at Embree's quad coordinates (u, v): the base color alpha
+// (factor × texture at the interpolated UV) below the material's cutoff.
+bool passesCutout(const Scene& scene, const PatchMesh& mesh, uint32_t patch, double u, double v) {
+  if (patch >= mesh.patches.size() || mesh.patches[patch].mask < 0) return false;
+  const PatchMask& mask = mesh.masks[mesh.patches[patch].mask];
+  double w[4];
+  if (u + v <= 1) {  // triangle v0 v1 v3
+    w[0] = 1 - u - v; w[1] = u; w[2] = 0; w[3] = v;
+  } else {           // triangle v2 v3 v1
+    w[0] = 0; w[1] = 1 - v; w[2] = u + v - 1; w[3] = 1 - u;
+  }
+  double tu = 0, tv = 0;
+  for (int k = 0; k < 4; ++k) {
+    tu += w[k] * mask.uv[k][0];
+    tv += w[k] * mask.uv[k][1];
+  }
+  return mask.baseAlpha * sampleAlpha(scene, mask.texture, tu, tv) < mask.cutoff;
+}
+
 }  // namespace
 
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options) {
   Solution solution;
   solution.method = options.method;
   solution.interreflection = true;
-  const Occlusion occlusion(mesh);
+  Occlusion occlusion(mesh);
+  if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
   std::vector<Vec3> gathered;
   if (options.method == Method::kBilinear) {
     std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());

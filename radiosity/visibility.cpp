@@ -65,7 +65,7 @@ bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32
   rtcInitIntersectContext(&context);
   float tnear = float(epsilon_);
   const float tfar = float(dist - epsilon_);
-  if (ignore.empty()) {
+  if (ignore.empty() && !passes_) {
     RTCRay ray{};
     ray.org_x = float(from.x); ray.org_y = float(from.y); ray.org_z = float(from.z);
     ray.dir_x = float(d.x / dist); ray.dir_y = float(d.y / dist); ray.dir_z = float(d.z / dist);
@@ -76,7 +76,7 @@ bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32
     return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
   }
   // With patches to ignore: walk the hits front to back, stepping over ignored ones.
-  for (int step = 0; step < 16 && tnear < tfar; ++step) {
+  for (int step = 0; step < 64 && tnear < tfar; ++step) {
     RTCRayHit rh{};
     rh.ray.org_x = float(from.x); rh.ray.org_y = float(from.y); rh.ray.org_z = float(from.z);
     rh.ray.dir_x = float(d.x / dist); rh.ray.dir_y = float(d.y / dist); rh.ray.dir_z = float(d.z / dist);
@@ -86,7 +86,8 @@ bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(impl_->scene, &context, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return true;
-    if (std::find(ignore.begin(), ignore.end(), rh.hit.primID) == ignore.end()) return false;
+    const bool ignored = std::find(ignore.begin(), ignore.end(), rh.hit.primID) != ignore.end();
+    if (!ignored && !(passes_ && passes_(rh.hit.primID, rh.hit.u, rh.hit.v))) return false;
     tnear = rh.ray.tfar + float(epsilon_);
   }
   return true;

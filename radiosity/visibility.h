@@ -5,6 +5,7 @@
 // light, which is what keeps light from leaking under the Cornell box's blocks.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <span>
 
@@ -24,12 +25,18 @@ class Occlusion {
   // do not block: the source patch itself and the patches around the receiving vertex, whose
   // triangles can stand between a point and its own slightly non-planar (curved) patch. Thread-safe.
   bool visible(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore = {}) const;
+  // Cut-out patches (alpha MASK): `passes(patch, u, v)` says whether light goes through `patch` at
+  // Embree's quad coordinates (v0 = (0,0), v1 = (1,0), v2 = (1,1), v3 = (0,1); split v0 v1 v3 /
+  // v2 v3 v1). Set before any query; only patches with a mask are asked.
+  void setCutouts(std::function<bool(uint32_t patch, double u, double v)> passes) { passes_ = std::move(passes); }
+
   // A length that is negligible against the scene (1e-7 of its bounding-box diagonal).
   double epsilon() const { return epsilon_; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  std::function<bool(uint32_t, double, double)> passes_;
   double epsilon_ = 0;
 };
 

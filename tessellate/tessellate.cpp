@@ -203,7 +203,7 @@ Vec3 averageTexture(const Scene& scene, const TextureRef& ref, const std::array<
 // A patch's reflectance and emission: the material's factors times its textures averaged over the
 // patch. `cornerUV(k, set)` gives corner k's TEXCOORD_set.
 template <typename CornerUV>
-void shade(const Scene& scene, const Primitive& prim, const PatchMesh& mesh, Patch& patch, const CornerUV& cornerUV) {
+void shade(const Scene& scene, const Primitive& prim, PatchMesh& mesh, Patch& patch, const CornerUV& cornerUV) {
   const Material& m = scene.materials[patch.material];
   patch.reflectance = m.reflectance;
   patch.emission = m.emission;
@@ -213,6 +213,33 @@ void shade(const Scene& scene, const Primitive& prim, const PatchMesh& mesh, Pat
     for (int k = 0; k < 4; ++k) uv[k] = cornerUV(k, ref.texCoord);
     return averageTexture(scene, ref, uv, {mesh.positions[patch.v[0]], mesh.positions[patch.v[1]], mesh.positions[patch.v[2]], mesh.positions[patch.v[3]]});
   };
+  if (m.alphaMask) {
+    // The cut-out: occlusion tests the mask where rays hit; the patch reflects and emits in
+    // proportion to its opaque part (a 4×4 estimate of the covered fraction).
+    PatchMask mask;
+    mask.texture = m.baseColorTexture;
+    mask.baseAlpha = m.baseAlpha;
+    mask.cutoff = m.alphaCutoff;
+    const bool textured = hasTexcoords(prim, m.baseColorTexture.texCoord) && m.baseColorTexture.texture >= 0;
+    for (int k = 0; k < 4; ++k) mask.uv[k] = textured ? cornerUV(k, m.baseColorTexture.texCoord) : UV{0, 0};
+    if (!textured) mask.texture.texture = -1;
+    int opaque = 0;
+    for (int j = 0; j < 4; ++j)
+      for (int i = 0; i < 4; ++i) {
+        const double s = (i + 0.5) / 4, r = (j + 0.5) / 4;
+        const double w[4] = {(1 - s) * (1 - r), s * (1 - r), s * r, (1 - s) * r};
+        double u = 0, v = 0;
+        for (int k = 0; k < 4; ++k) {
+          u += w[k] * mask.uv[k][0];
+          v += w[k] * mask.uv[k][1];
+        }
+        opaque += mask.baseAlpha * sampleAlpha(scene, mask.texture, u, v) >= mask.cutoff;
+      }
+    patch.coverage = opaque / 16.0;
+    patch.mask = int(mesh.masks.size());
+    mesh.masks.push_back(mask);
+    patch.shaded = true;
+  }
   if (auto t = textured(m.baseColorTexture)) {
     patch.reflectance = {m.reflectance.x * t->x, m.reflectance.y * t->y, m.reflectance.z * t->z};
     patch.shaded = true;
@@ -221,6 +248,8 @@ void shade(const Scene& scene, const Primitive& prim, const PatchMesh& mesh, Pat
     patch.emission = {m.emission.x * t->x, m.emission.y * t->y, m.emission.z * t->z};
     patch.shaded = true;
   }
+  patch.reflectance *= patch.coverage;
+  patch.emission *= patch.coverage;
 }
 
 // Patches not shaded by a texture carry their material's values; each vertex gets the

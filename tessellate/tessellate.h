@@ -25,6 +25,10 @@ struct Patch {
   // ρ and L⁰ of this patch: the material's factors times its textures averaged over the patch.
   Vec3 reflectance, emission;
   bool shaded = false;        // set from textures (else the material's values are filled in)
+  // alphaMode MASK: the corners' base color texture coordinates, so occlusion can test the mask
+  // where a ray hits (empty mask: the patch is opaque).
+  int mask = -1;              // index into PatchMesh::masks
+  double coverage = 1;        // the opaque fraction of a cut-out patch
 };
 
 inline Patch makePatch(const std::array<uint32_t, 4>& v, int material, int primitive, const Vec3& normal, double area) {
@@ -65,6 +69,14 @@ struct GeneratedSurface {
   std::vector<std::array<uint32_t, 3>> triangles;
 };
 
+// A cut-out patch: where its base color alpha (factor × texture at the bilinear UV) falls below the
+// cutoff, light passes.
+struct PatchMask {
+  std::array<std::array<double, 2>, 4> uv;  // TEXCOORD of the base color texture at v0..v3
+  TextureRef texture;
+  double baseAlpha = 1, cutoff = 0.5;
+};
+
 struct PatchMesh {
   std::vector<Vec3> positions;  // welded patch vertices
   std::vector<Vec3> normals;    // unit, the receiving orientation of each vertex
@@ -72,6 +84,7 @@ struct PatchMesh {
   std::vector<Vec3> vertexReflectance, vertexEmission;  // area-weighted means of the patches around
   std::vector<Patch> patches;
   std::vector<PrimitivePatches> primitives;  // parallel to Scene::primitives
+  std::vector<PatchMask> masks;
   std::vector<GeneratedSurface> generated;   // from Scene::bezierPatches
   int curvedRate = 0;             // quads per patch edge on curved surfaces
   double worstNonPlanarity = 0;   // curved surfaces: largest corner distance from a facet's plane over its diagonal

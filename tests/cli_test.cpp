@@ -427,7 +427,8 @@ std::string base64(const std::vector<float>& values) {
 // node at `translation` with `rotation` (quaternion), as a glTF text.
 // With `occluder`, a black 0.2×0.2 card at y = 1 over the plate's centre casts a shadow.
 std::string litPlateGltf(const std::string& lightJson, const std::string& translation, const std::string& rotation = "0,0,0,1",
-                         bool occluder = false) {
+                         bool occluder = false,
+                         const std::string& occluderMaterial = R"({"pbrMetallicRoughness":{"baseColorFactor":[0,0,0,1],"metallicFactor":0}})") {
   const std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, 1, 1, 0, -1, -1, 0, -1,
                                 -0.1f, 1, 0.1f, 0.1f, 1, 0.1f, 0.1f, 1, -0.1f, -0.1f, 1, 0.1f, 0.1f, 1, -0.1f, -0.1f, 1, -0.1f};
   return R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
@@ -438,7 +439,7 @@ std::string litPlateGltf(const std::string& lightJson, const std::string& transl
     "meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]},
               {"primitives":[{"attributes":{"POSITION":1},"material":1}]}],
     "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0}},
-                 {"pbrMetallicRoughness":{"baseColorFactor":[0,0,0,1],"metallicFactor":0}}],
+                 )" + occluderMaterial + R"(],
     "accessors":[{"bufferView":0,"componentType":5126,"count":6,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
                  {"bufferView":0,"byteOffset":72,"componentType":5126,"count":6,"type":"VEC3",
                   "min":[-0.1,1,-0.1],"max":[0.1,1,0.1]}],
@@ -493,6 +494,18 @@ TEST(Lights, ShadowsBlockDirectLight) {
   const auto L = probePlate(litPlateGltf(R"({"type":"point","intensity":10})", "0,2,0", "0,0,0,1", true), {{0, 0}, {1, 1}});
   EXPECT_EQ(L[0], 0.0);  // under the card
   EXPECT_NEAR(L[1], 0.5 * 10 * (2 / std::sqrt(6.0)) / (kPi * 6), 1e-12);
+}
+
+TEST(Lights, AlphaMaskCutsShadowsOut) {
+  // The same card as alphaMode MASK: with alpha 0.3 under the cutoff 0.5 it is cut out entirely
+  // and casts no shadow; with alpha 0.7 it is solid.
+  const std::string light = R"({"type":"point","intensity":10})";
+  const auto clear = probePlate(litPlateGltf(light, "0,2,0", "0,0,0,1", true,
+      R"({"alphaMode":"MASK","pbrMetallicRoughness":{"baseColorFactor":[0,0,0,0.3],"metallicFactor":0}})"), {{0, 0}});
+  EXPECT_NEAR(clear[0], 0.5 * 10 / (kPi * 4), 1e-12);
+  const auto solid = probePlate(litPlateGltf(light, "0,2,0", "0,0,0,1", true,
+      R"({"alphaMode":"MASK","pbrMetallicRoughness":{"baseColorFactor":[0,0,0,0.7],"metallicFactor":0}})"), {{0, 0}});
+  EXPECT_EQ(solid[0], 0.0);
 }
 
 TEST(Lights, DirectionalLightStraightDown) {
