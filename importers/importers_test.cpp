@@ -99,6 +99,17 @@ TEST(Importer, NormalizedQuantizedPositions) {
   EXPECT_NEAR(p.normals[0].y, 1.0, 1e-12);  // no NORMAL: flat, from the winding
 }
 
+TEST(Importer, SparseAccessorsSubstituteTheirValues) {
+  // POSITION with no buffer view (zeros) and a sparse part setting elements 1 and 2.
+  const Scene scene = importScene(std::string(RADBAKE_SOURCE_DIR) + "/tests/data/sparse_triangle.gltf");
+  ASSERT_EQ(scene.primitives.size(), 1u);
+  const Primitive& p = scene.primitives[0];
+  EXPECT_EQ(p.positions[0], (Vec3{0, 0, 0}));
+  EXPECT_EQ(p.positions[1], (Vec3{0, 0, 1}));
+  EXPECT_EQ(p.positions[2], (Vec3{1, 0, 0}));
+  EXPECT_EQ(p.triangles.size(), 1u);
+}
+
 TEST(Importer, ErrorsCarryExitCodes) {
   try {
     importScene("/nonexistent.glb");

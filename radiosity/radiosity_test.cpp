@@ -401,3 +401,57 @@ TEST(SubdivisionSurface, CatmullClarkFurnaceIsTwoEverywhere) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Cutout, TexturedAlphaMaskLetsLightThroughItsClearHalf) {
+  // A card at y = 1 whose texture is opaque on its left half (u < ½) and clear on its right, under
+  // a 10 cd point light at (0, 2, 0), over a small plate (ρ 0.5) at y = 0. The plate's left
+  // corners look at the light through the opaque half (dark), its right corners through the clear
+  // half: ρ I cosθ / (π r²).
+  Scene scene;
+  scene.materials = {material("plate", 0.5, 0), material("card", 0, 0)};
+  scene.materials[1].alphaMask = true;
+  scene.materials[1].baseColorTexture.texture = 0;
+  Texture t;
+  t.width = 2;
+  t.height = 1;
+  t.rgb = {1, 1, 1, 1, 1, 1};
+  t.alpha = {1, 0};
+  scene.textures.push_back(t);
+  Primitive plate;
+  plate.material = 0;
+  plate.positions = {{-0.1, 0, 0.05}, {0.1, 0, 0.05}, {0.1, 0, -0.05}, {-0.1, 0, -0.05}};
+  plate.normals.assign(4, Vec3{0, 1, 0});
+  plate.hasNormals = true;
+  plate.triangles = {{0, 1, 2}, {0, 2, 3}};
+  Primitive card;
+  card.material = 1;
+  card.primitive = 1;
+  card.positions = {{-0.1, 1, -0.1}, {0.1, 1, -0.1}, {0.1, 1, 0.1}, {-0.1, 1, 0.1}};
+  card.normals.assign(4, Vec3{0, -1, 0});
+  card.hasNormals = true;
+  card.triangles = {{0, 1, 2}, {0, 2, 3}};
+  card.texcoords = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+  scene.primitives = {plate, card};
+  PunctualLight light;
+  light.position = {0, 2, 0};
+  light.intensity = {10, 10, 10};
+  scene.lights.push_back(light);
+  const PatchMesh mesh = tessellate(scene);
+  ASSERT_EQ(mesh.masks.size(), 1u);
+  const Solution s = solveRadiosity(scene, mesh);
+  int dark = 0, lit = 0;
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Vec3& p = mesh.positions[v];
+    if (p.y != 0) continue;
+    const double r2 = dot(p - light.position, p - light.position);
+    const double expected = p.x < 0 ? 0.0 : 0.5 * 10 * (2 / std::sqrt(r2)) / (3.14159265358979323846 * r2);
+    EXPECT_NEAR(s.vertexRadiance[v].x, expected, 1e-12) << p.x << " " << p.z;
+    (p.x < 0 ? dark : lit)++;
+  }
+  EXPECT_EQ(dark, 2);
+  EXPECT_EQ(lit, 2);
+}
+
+}  // namespace

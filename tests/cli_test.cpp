@@ -750,6 +750,16 @@ TEST(Textures, BaseColorTextureIsAveragedOverEachPatch) {
   EXPECT_NEAR(red[1], 0.25 * 3 / kPi, 1e-9);
 }
 
+TEST(Textures, TextureTransformIsApplied) {
+  // KHR_texture_transform offset ½ along u swaps the halves: the left half now averages ¼.
+  const auto red = bakeTexturedPlate(
+      R"({"pbrMetallicRoughness":{"baseColorTexture":{"index":0,
+          "extensions":{"KHR_texture_transform":{"offset":[0.5,0]}}},"metallicFactor":0}})");
+  ASSERT_EQ(red.size(), 2u);
+  EXPECT_NEAR(red[0], 0.25 * 3 / kPi, 1e-9);
+  EXPECT_NEAR(red[1], 0.75 * 3 / kPi, 1e-9);
+}
+
 TEST(Textures, EmissiveTextureTimesStrength) {
   // Black (ρ 0), emitting emissiveFactor × texture × KHR_materials_emissive_strength 4: L = L⁰.
   const auto red = bakeTexturedPlate(
