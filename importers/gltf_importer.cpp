@@ -17,6 +17,7 @@
 #include "importers/gltf_schema.h"
 #include "importers/importers.h"
 #include "importers/bpt_importer.h"
+#include "importers/draco.h"
 #include "importers/texture.h"
 
 namespace radbake {
@@ -78,6 +79,19 @@ std::string glbJson(const Context& ctx, const std::vector<unsigned char>& bytes)
       ctx.invalid("truncated GLB: BIN chunk of " + std::to_string(binLength) + " bytes exceeds the file length " + std::to_string(length));
   }
   return std::string(reinterpret_cast<const char*>(&bytes[20]), jsonLength);
+}
+
+// The same GLB with another JSON chunk (the BIN chunk, if any, unchanged).
+std::vector<unsigned char> repackGlb(const std::vector<unsigned char>& bytes, std::string json) {
+  while (json.size() % 4) json.push_back(' ');
+  const uint32_t oldJson = readU32(&bytes[12]);
+  const size_t rest = std::min<size_t>(readU32(&bytes[8]), bytes.size()) - (20 + oldJson);
+  std::vector<unsigned char> out(20 + json.size() + rest);
+  const uint32_t header[5] = {0x46546C67, 2, uint32_t(out.size()), uint32_t(json.size()), 0x4E4F534A};  // glTF, version, length, JSON
+  std::memcpy(out.data(), header, sizeof header);
+  std::memcpy(out.data() + 20, json.data(), json.size());
+  std::memcpy(out.data() + 20 + json.size(), bytes.data() + 20 + oldJson, rest);
+  return out;
 }
 
 // Images are kept encoded, exactly as read: radbake writes them back unchanged and decodes only
@@ -285,7 +299,7 @@ Vec3 transformNormal(const NormalMatrix& n, const Vec3& v) {
 std::string extensionsNotSupported(const std::vector<std::string>& required) {
   static const std::set<std::string> kSupportedRequired = {
       "KHR_mesh_quantization", "KHR_texture_transform", "KHR_materials_emissive_strength",
-      "KHR_materials_unlit", "KHR_materials_pbrSpecularGlossiness"};
+      "KHR_materials_unlit", "KHR_materials_pbrSpecularGlossiness", "KHR_draco_mesh_compression"};
   for (const std::string& ext : required)
     if (!kSupportedRequired.count(ext)) return ext;
   return "";
@@ -717,6 +731,12 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
     return scene;
   }
 
+  std::vector<unsigned char> glb;  // the GLB again, when its JSON had to change for tinygltf
+  if (std::string fixed = withoutDracoIndices(jsonText); !fixed.empty()) {
+    jsonText = fixed;
+    if (binary) glb = repackGlb(bytes, jsonText);
+  }
+
   auto document = std::make_shared<SourceDocument>();
   document->binary = binary;
   tinygltf::TinyGLTF loader;
@@ -724,10 +744,12 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
   loader.SetStoreOriginalJSONForExtrasAndExtensions(false);
   std::string err, warn;
   const std::string baseDir = std::filesystem::path(path).parent_path().string();
-  bool ok = binary ? loader.LoadBinaryFromMemory(&document->model, &err, &warn, bytes.data(), unsigned(bytes.size()), baseDir)
+  const std::vector<unsigned char>& container = glb.empty() ? bytes : glb;
+  bool ok = binary ? loader.LoadBinaryFromMemory(&document->model, &err, &warn, container.data(), unsigned(container.size()), baseDir)
                    : loader.LoadASCIIFromString(&document->model, &err, &warn, jsonText.data(), unsigned(jsonText.size()), baseDir);
   if (!ok) ctx.invalid(firstLine(err.empty() ? std::string("could not be parsed as glTF") : err));
   tinygltf::Model& m = document->model;
+  if (std::string problem = decodeDracoPrimitives(m); !problem.empty()) ctx.invalid(problem);
   if (m.asset.version.rfind("2.", 0) != 0)
     ctx.fail(ExitCode::kUnsupported, "asset version \"" + m.asset.version + "\" (only glTF 2.0 is supported)");
   for (size_t i = 0; i < m.images.size(); ++i)

@@ -229,6 +229,20 @@ std::string checkGltfSchema(const std::string& jsonText) {
   return checkByteRanges(doc);
 }
 
+std::string withoutDracoIndices(const std::string& jsonText) {
+  json doc = json::parse(jsonText);
+  bool changed = false;
+  if (auto meshes = doc.find("meshes"); meshes != doc.end())
+    for (auto& mesh : *meshes)
+      if (auto prims = mesh.find("primitives"); prims != mesh.end())
+        for (auto& prim : *prims)
+          if (prim.contains("extensions") && prim["extensions"].contains("KHR_draco_mesh_compression") && prim.contains("indices")) {
+            prim.erase("indices");
+            changed = true;
+          }
+  return changed ? doc.dump() : "";
+}
+
 JsonSummary summarizeGltfJson(const std::string& jsonText) {
   const json doc = json::parse(jsonText);
   JsonSummary out;

@@ -21,4 +21,9 @@ struct JsonSummary {
 };
 JsonSummary summarizeGltfJson(const std::string& jsonText);  // after checkGltfSchema passed
 
+// tinygltf 2.7 (built without Draco) rejects a primitive whose indices accessor has no buffer
+// view, which is how KHR_draco_mesh_compression primitives look. Returns the JSON with "indices"
+// removed from such primitives (the Draco decoder writes new ones), or "" when none has it.
+std::string withoutDracoIndices(const std::string& jsonText);
+
 }  // namespace radbake

@@ -110,6 +110,33 @@ TEST(Importer, SparseAccessorsSubstituteTheirValues) {
   EXPECT_EQ(p.triangles.size(), 1u);
 }
 
+// World bounding box and total area of every triangle of a scene.
+std::pair<std::array<double, 6>, double> extentAndArea(const Scene& scene) {
+  std::array<double, 6> box{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
+  double area = 0;
+  for (const Primitive& p : scene.primitives) {
+    for (const auto& t : p.triangles)
+      for (uint32_t v : t)
+        for (int k = 0; k < 3; ++k) {
+          box[k] = std::min(box[k], p.positions[v][k]);
+          box[k + 3] = std::max(box[k + 3], p.positions[v][k]);
+        }
+    area += totalArea(p);
+  }
+  return {box, area};
+}
+
+TEST(Importer, DracoDecodesToTheSameEngine) {
+  // The Draco-compressed 2CylinderEngine against the plain one: the same world extent within the
+  // compression's quantization (1e-3 of the size) and the same surface area within 0.5%.
+  const fs::path assets = fs::path(RADBAKE_SHARED_DIR) / "assets" / "valid";
+  const auto plain = extentAndArea(importScene((assets / "2CylinderEngine" / "2CylinderEngine.glb").string()));
+  const auto draco = extentAndArea(importScene((assets / "2CylinderEngine-draco" / "2CylinderEngine.gltf").string()));
+  const double size = plain.first[3] - plain.first[0];
+  for (int k = 0; k < 6; ++k) EXPECT_NEAR(draco.first[k], plain.first[k], 1e-3 * size) << k;
+  EXPECT_NEAR(draco.second / plain.second, 1.0, 5e-3);
+}
+
 TEST(Importer, ErrorsCarryExitCodes) {
   try {
     importScene("/nonexistent.glb");
