@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -51,8 +52,10 @@ bool isUint(const json& v) {
   if (v.is_number_unsigned()) return true;
   if (v.is_number_integer()) return v.get<long long>() >= 0;
   if (v.is_number_float()) {
+    // A whole number within 2^53 (where doubles count exactly); larger ones are no index or
+    // length a file could hold, and casting them to an integer would be undefined (found by fuzzing).
     const double d = v.get<double>();
-    return d >= 0 && d == static_cast<double>(static_cast<long long>(d));
+    return d >= 0 && d <= 9007199254740992.0 && d == std::floor(d);
   }
   return false;
 }
