@@ -36,4 +36,15 @@ inline bool isFinite(const Vec3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+// Axis-aligned bounds of points, for sizes that set tolerances (welding, ray offsets, rates).
+struct Bounds {
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  void add(const Vec3& p) {
+    lo = {lo.x < p.x ? lo.x : p.x, lo.y < p.y ? lo.y : p.y, lo.z < p.z ? lo.z : p.z};
+    hi = {hi.x > p.x ? hi.x : p.x, hi.y > p.y ? hi.y : p.y, hi.z > p.z ? hi.z : p.z};
+  }
+  bool empty() const { return lo.x > hi.x; }
+  double diagonal() const { return empty() ? 0 : length(hi - lo); }
+};
+
 }  // namespace radbake

@@ -47,12 +47,9 @@ struct Polygon {
 bool makePolygon(const Vec3* pts, int count, Polygon& out) {
   out.v.clear();
   if (count < 3) return false;
-  Vec3 lo = pts[0], hi = pts[0];
-  for (int i = 1; i < count; ++i) {
-    lo = {std::min(lo.x, pts[i].x), std::min(lo.y, pts[i].y), std::min(lo.z, pts[i].z)};
-    hi = {std::max(hi.x, pts[i].x), std::max(hi.y, pts[i].y), std::max(hi.z, pts[i].z)};
-  }
-  out.size = length(hi - lo);
+  Bounds bounds;
+  for (int i = 0; i < count; ++i) bounds.add(pts[i]);
+  out.size = bounds.diagonal();
   if (!(out.size > 0)) return false;
   const double dup = kDuplicateTolerance * out.size;
   for (int i = 0; i < count; ++i) {

@@ -18,6 +18,8 @@ namespace radbake {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Where visibility is first probed on a patch, in (s, t): its centre and four inner points.
+constexpr double kProbe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
 
 // The patches around each vertex (CSR), to keep them from occluding the vertex's own rays.
 struct VertexPatches {
@@ -166,8 +168,7 @@ std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& fr
   const double lift = occlusion.epsilon() * 10;
   auto target = [&](double s, double t) { return pointOnPatch(q, s, t) + qNormal * lift; };
   int seen = 0;
-  const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
-  for (const auto& st : probe) seen += occlusion.visible(from, target(st[0], st[1]), ignore);
+  for (const auto& st : kProbe) seen += occlusion.visible(from, target(st[0], st[1]), ignore);
   if (seen == 5) return {1, 1, 1, 1};
   if (seen == 0) return {0, 0, 0, 0};
   constexpr double kNode[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
@@ -252,11 +253,10 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
       if (!(f > 0)) continue;
       // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
       // rays between inner points of both patches.
-      const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
       const uint32_t pair[2] = {uint32_t(k), uint32_t(l)};
       auto ray = [&](int a, int b) {
-        return occlusion.visible(pointOnPatch(qk, probe[a][0], probe[a][1]) + lift,
-                                 pointOnPatch(ql, probe[b][0], probe[b][1]) + pl.normal * (occlusion.epsilon() * 10), pair);
+        return occlusion.visible(pointOnPatch(qk, kProbe[a][0], kProbe[a][1]) + lift,
+                                 pointOnPatch(ql, kProbe[b][0], kProbe[b][1]) + pl.normal * (occlusion.epsilon() * 10), pair);
       };
       int seen = 0;
       for (int b = 0; b < 5; ++b) seen += ray(0, b);
@@ -330,9 +330,8 @@ std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion&
         const double f = constantPatchFactor(qk, ql);
         if (!(f > 0)) continue;
         int seen = 0;
-        const double probe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
-        const uint32_t pair[2] = {uint32_t(k), uint32_t(l)};
-        for (const auto& b : probe) seen += occlusion.visible(from, pointOnPatch(ql, b[0], b[1]), pair);
+          const uint32_t pair[2] = {uint32_t(k), uint32_t(l)};
+        for (const auto& b : kProbe) seen += occlusion.visible(from, pointOnPatch(ql, b[0], b[1]), pair);
         covered += f * seen / 5.0;
       }
       sky[k] = std::max(0.0, 1 - covered);
@@ -383,8 +382,8 @@ void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::v
 // Irradiance at x (normal n) from the punctual lights, shadowed (KHR_lights_punctual: intensity
 // in candela for point and spot lights, illuminance in lux for directional ones; the spec's spot
 // cone and range falloff).
-Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Occlusion& occlusion, double sceneSize,
-                      const Vec3& origin, const Vec3& x, const Vec3& n, std::span<const uint32_t> ignore) {
+Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Occlusion& occlusion, const Vec3& origin,
+                      const Vec3& x, const Vec3& n, std::span<const uint32_t> ignore) {
   Vec3 e{};
   for (const PunctualLight& light : lights) {
     Vec3 toLight;
@@ -410,20 +409,11 @@ Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Occlusion&
     }
     const double cosine = dot(n, toLight);
     if (!(cosine > 0) || !(falloff > 0)) continue;
-    const Vec3 target = light.type == PunctualLight::Type::kDirectional ? origin + toLight * (10 * sceneSize) : light.position;
+    const Vec3 target = light.type == PunctualLight::Type::kDirectional ? origin + toLight * (10 * occlusion.sceneSize()) : light.position;
     if (!occlusion.visible(origin, target, ignore)) continue;
     e += light.intensity * (cosine * falloff);
   }
   return e;
-}
-
-double sceneSize(const PatchMesh& mesh) {
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (const Vec3& p : mesh.positions) {
-    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-  }
-  return mesh.positions.empty() ? 1 : length(hi - lo);
 }
 
 // Direct light from the punctual lights, as the radiance it adds: ρ E / π per unknown.
@@ -432,11 +422,10 @@ std::vector<Vec3> bilinearDirectLight(const Scene& scene, const PatchMesh& mesh,
   if (scene.lights.empty()) return e;
   const std::vector<Vec3> approach = approachDirections(mesh);
   const VertexPatches around = vertexPatches(mesh);
-  const double size = sceneSize(mesh);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, e.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i) {
       const Vec3 origin = mesh.positions[i] + (mesh.normals[i] + approach[i]) * (occlusion.epsilon() * 10);
-      e[i] = directIrradiance(scene.lights, occlusion, size, origin, mesh.positions[i], mesh.normals[i], around.of(i));
+      e[i] = directIrradiance(scene.lights, occlusion, origin, mesh.positions[i], mesh.normals[i], around.of(i));
     }
   });
   return e;
@@ -445,7 +434,6 @@ std::vector<Vec3> bilinearDirectLight(const Scene& scene, const PatchMesh& mesh,
 std::vector<Vec3> constantDirectLight(const Scene& scene, const PatchMesh& mesh, const Occlusion& occlusion) {
   std::vector<Vec3> e(mesh.patches.size());
   if (scene.lights.empty()) return e;
-  const double size = sceneSize(mesh);
   constexpr double kNode[3] = {-0.7745966692414834, 0, 0.7745966692414834};
   constexpr double kWeight[3] = {5.0 / 9, 8.0 / 9, 5.0 / 9};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, e.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
@@ -462,7 +450,7 @@ std::vector<Vec3> constantDirectLight(const Scene& scene, const PatchMesh& mesh,
           const Vec3 dt = (q[3] - q[0]) * (1 - s) / 4 + (q[2] - q[1]) * (1 + s) / 4;
           const double w = kWeight[a] * kWeight[b] * length(cross(ds, dt));
           const Vec3 x = pointOnPatch(q, s, t);
-          sum += directIrradiance(scene.lights, occlusion, size, x + patch.normal * (occlusion.epsilon() * 10), x,
+          sum += directIrradiance(scene.lights, occlusion, x + patch.normal * (occlusion.epsilon() * 10), x,
                                   patch.normal, self) * w;
           area += w;
         }

@@ -27,12 +27,10 @@ Occlusion::Occlusion(const PatchMesh& mesh) : impl_(std::make_unique<Impl>()) {
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);  // watertight-ish: no rays slipping through shared edges
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
 
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (const Vec3& p : mesh.positions) {
-    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-  }
-  epsilon_ = mesh.positions.empty() ? 1e-9 : std::max(1e-12, 1e-7 * length(hi - lo));
+  Bounds bounds;
+  for (const Vec3& p : mesh.positions) bounds.add(p);
+  sceneSize_ = mesh.positions.empty() ? 1 : bounds.diagonal();
+  epsilon_ = mesh.positions.empty() ? 1e-9 : std::max(1e-12, 1e-7 * sceneSize_);
 
   if (!mesh.patches.empty()) {
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_QUAD);

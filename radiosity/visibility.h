@@ -32,12 +32,15 @@ class Occlusion {
 
   // A length that is negligible against the scene (1e-7 of its bounding-box diagonal).
   double epsilon() const { return epsilon_; }
+  // The scene's bounding-box diagonal (1 for an empty scene).
+  double sceneSize() const { return sceneSize_; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::function<bool(uint32_t, double, double)> passes_;
   double epsilon_ = 0;
+  double sceneSize_ = 1;
 };
 
 }  // namespace radbake

@@ -341,7 +341,7 @@ void tessellateSubdivided(const Scene& scene, int primIndex, SubdivisionScheme s
   std::vector<Vec3> cage;
   std::vector<std::vector<uint32_t>> cageFaces;
   double longestEdge = 0;
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  Bounds bounds;
   for (const Face& f : faces) {
     std::vector<uint32_t> face;
     for (int k = 0; k < 4; ++k) {
@@ -350,13 +350,12 @@ void tessellateSubdivided(const Scene& scene, int primIndex, SubdivisionScheme s
       auto [it, inserted] = cageIndex.try_emplace({p.x, p.y, p.z}, uint32_t(cage.size()));
       if (inserted) cage.push_back(p);
       face.push_back(it->second);
-      lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-      hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+      bounds.add(p);
     }
     for (size_t k = 0; k < face.size(); ++k) longestEdge = std::max(longestEdge, length(cage[face[(k + 1) % face.size()]] - cage[face[k]]));
     cageFaces.push_back(std::move(face));
   }
-  const double size = length(hi - lo);
+  const double size = bounds.diagonal();
   const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * size;
   // Rates are computed in double and clamped before becoming ints: absurd geometry must not overflow.
   double wanted = std::max(double(options.subdivide), std::ceil(longestEdge / std::sqrt(8 * (size / 2) * chord)));
@@ -574,13 +573,10 @@ double chordError(const BezierPatch& patch, int n) {
 
 // One uniform rate for all patches of the surface, so shared edges get the same points.
 int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions& options) {
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  Bounds bounds;
   for (const BezierPatch& p : patches)
-    for (const Vec3& c : p.control) {
-      lo = {std::min(lo.x, c.x), std::min(lo.y, c.y), std::min(lo.z, c.z)};
-      hi = {std::max(hi.x, c.x), std::max(hi.y, c.y), std::max(hi.z, c.z)};
-    }
-  const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * length(hi - lo);
+    for (const Vec3& c : p.control) bounds.add(c);
+  const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * bounds.diagonal();
   constexpr int kMaxRate = 256;
   int rate = std::max(1, options.subdivide);
   for (const BezierPatch& p : patches) {
