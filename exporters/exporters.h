@@ -6,6 +6,7 @@
 // the result is self-contained. The write is atomic: a temporary file renamed into place.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,14 +15,50 @@
 
 namespace radbake {
 
+// How COLOR_0 (and lightmap previews) are shaped for display, with OpenColorIO.
+struct DisplayOptions {
+  std::string config;   // an .ocio file; empty: the built-in config (no file needed)
+  std::string display;  // empty: the config's default display ("sRGB" built in)
+  std::string view;     // empty: the display's default view ("ACES 1.0 SDR-video" built in; or "Standard")
+  std::optional<double> exposure;  // EV applied to the radiance first; empty: automatic
+};
+
+// Automatic exposure puts the 90th percentile of the lit (non-emitting) surfaces' luminance here.
+constexpr double kAutoExposureTarget = 0.8;
+
+// The display transform as resolved: names filled in, exposure chosen.
+struct DisplayShaping {
+  DisplayOptions options;  // display and view set to what was used
+  std::string configName;  // the file, or a description of the built-in config
+  double exposure = 0;     // EV
+  bool automatic = false;
+  double keyLuminance = 0;  // automatic: the 90th-percentile luminance it was set from
+};
+
+// Loads or builds the config and checks the display and view: Error(kInvalidInput) naming the file
+// for a config OCIO cannot use, Error(kUsage) listing the choices for an unknown display or view.
+// `reflected`: radiance of lit, non-emitting surface points, for the automatic exposure.
+DisplayShaping resolveDisplay(const DisplayOptions& options, const std::vector<Vec3>& reflected = {});
+
+// Scene-linear radiance → display code values in [0,1] (for the built-in display: sRGB encoded).
+std::vector<Vec3> toDisplay(const DisplayShaping& shaping, const std::vector<Vec3>& radiance);
+
+// The sRGB transfer function (IEC 61966-2-1), both ways.
+double srgbDecode(double code);
+double srgbEncode(double linear);
+
 struct ExportOptions {
   bool pretty = false;  // indent the JSON of a .gltf
+  DisplayOptions display;
 };
 
 struct ExportSummary {
   int bakedPrimitives = 0;
   int clonedMeshes = 0;  // meshes duplicated so that each instance carries its own bake
+  int unlitMaterials = 0;  // materials switched to KHR_materials_unlit
   long long writtenVertices = 0;
+  long long clampedColors = 0;  // COLOR_0 components clamped to 1 (light × texture could not reach the display value)
+  DisplayShaping display;
 };
 
 // vertexRadiance: linear outgoing radiance per PatchMesh vertex; patchRadiance (may be empty): per

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <unistd.h>
 
@@ -124,16 +125,9 @@ std::vector<float> radianceFloats(const std::vector<Vec3>& values) {
   return out;
 }
 
-// Placeholder display mapping until the OCIO display pipeline lands (issue 7): linear radiance
-// clamped into glTF's [0,1] COLOR_0 range.
-std::vector<float> displayColors(const std::vector<Vec3>& values) {
-  std::vector<float> out = radianceFloats(values);
-  for (float& v : out) v = std::clamp(v, 0.0f, 1.0f);
-  return out;
-}
-
 // glTF COLOR_n must stay contiguous from 0: the bake becomes COLOR_0, existing sets move up by one.
-void addBakeAttributes(tinygltf::Model& m, tinygltf::Primitive& prim, const std::vector<Vec3>& radiance) {
+void addBakeAttributes(tinygltf::Model& m, tinygltf::Primitive& prim, const std::vector<Vec3>& radiance,
+                       const std::vector<Vec3>& colors) {
   std::map<std::string, int> shifted;
   for (auto& [semantic, accessor] : prim.attributes) {
     if (semantic.rfind("COLOR_", 0) == 0) {
@@ -145,7 +139,50 @@ void addBakeAttributes(tinygltf::Model& m, tinygltf::Primitive& prim, const std:
   std::erase_if(prim.attributes, [](const auto& kv) { return kv.first.rfind("COLOR_", 0) == 0; });
   prim.attributes.insert(shifted.begin(), shifted.end());
   prim.attributes["_RADIANCE"] = appendFloatAccessor(m, radianceFloats(radiance), TINYGLTF_TYPE_VEC3, 3, false);
-  prim.attributes["COLOR_0"] = appendFloatAccessor(m, displayColors(radiance), TINYGLTF_TYPE_VEC3, 3, false);
+  prim.attributes["COLOR_0"] = appendFloatAccessor(m, radianceFloats(colors), TINYGLTF_TYPE_VEC3, 3, false);
+}
+
+// The base color texture (linear) at each output vertex of a baked primitive: an unlit viewer
+// shows texture × COLOR_0, so COLOR_0 is the display value divided by it. (1, 1, 1) without one.
+std::vector<Vec3> textureAtVertices(const Scene& scene, const Primitive& prim, const PrimitivePatches& patches) {
+  const TextureRef& ref = scene.materials[prim.material].baseColorTexture;
+  const size_t count = patches.patchVertex.size();
+  std::vector<Vec3> out(count, Vec3{1, 1, 1});
+  if (ref.texture < 0 || ref.texCoord >= int(prim.texcoords.size())) return out;
+  const auto& uv = prim.texcoords[ref.texCoord];
+  if (uv.size() != prim.positions.size()) return out;
+  for (size_t v = 0; v < count; ++v) {
+    std::array<double, 2> at = {0, 0};
+    if (patches.keepsSourceVertices) {
+      at = uv[v];
+    } else {
+      const SurfacePoint& sp = patches.source[v];
+      const auto& t = prim.triangles[sp.triangle];
+      const double w[3] = {1 - sp.w1 - sp.w2, sp.w1, sp.w2};
+      for (int k = 0; k < 3; ++k) {
+        at[0] += w[k] * uv[t[k]][0];
+        at[1] += w[k] * uv[t[k]][1];
+      }
+    }
+    out[v] = sampleTexture(scene, ref, at[0], at[1]);
+  }
+  return out;
+}
+
+// Unlit materials show base color × COLOR_0 and nothing else, so the base color factor becomes
+// white (alpha kept) and the original factor is kept in extras.radbake for whoever re-bakes.
+void makeUnlit(tinygltf::Material& material) {
+  auto& factor = material.pbrMetallicRoughness.baseColorFactor;
+  tinygltf::Value::Object radbake;
+  tinygltf::Value::Array original;
+  for (double c : factor) original.emplace_back(c);
+  radbake["baseColorFactor"] = tinygltf::Value(original);
+  tinygltf::Value::Object extras = material.extras.IsObject() ? material.extras.Get<tinygltf::Value::Object>()
+                                                              : tinygltf::Value::Object{};
+  extras["radbake"] = tinygltf::Value(radbake);
+  material.extras = tinygltf::Value(extras);
+  factor = {1, 1, 1, factor.size() == 4 ? factor[3] : 1.0};
+  material.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object{});
 }
 
 // Inverse of an affine column-major 4×4 matrix (node to world), by the 3×3 adjugate.
@@ -248,22 +285,21 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
 
 // Curved input without a glTF primitive (a .bpt): a new node, mesh and material carry it.
 void addGeneratedSurface(tinygltf::Model& m, const Scene& scene, const PatchMesh& mesh, const GeneratedSurface& surface,
-                         const std::vector<Vec3>& vertexRadiance) {
+                         const std::vector<Vec3>& radiance, const std::vector<Vec3>& colors) {
   const Material& material = scene.materials[surface.material];
   tinygltf::Material mat;
   mat.name = material.name;
   mat.pbrMetallicRoughness.baseColorFactor = {material.reflectance.x, material.reflectance.y, material.reflectance.z, 1};
   mat.pbrMetallicRoughness.metallicFactor = 0;
   mat.pbrMetallicRoughness.roughnessFactor = 1;
+  makeUnlit(mat);
   m.materials.push_back(mat);
 
   std::vector<float> positions, normals;
-  std::vector<Vec3> radiance;
   for (uint32_t v : surface.patchVertex) {
     const Vec3 &p = mesh.positions[v], &n = mesh.normals[v];
     positions.insert(positions.end(), {float(p.x), float(p.y), float(p.z)});
     normals.insert(normals.end(), {float(n.x), float(n.y), float(n.z)});
-    radiance.push_back(vertexRadiance[v]);
   }
   tinygltf::Primitive prim;
   prim.mode = TINYGLTF_MODE_TRIANGLES;
@@ -271,7 +307,7 @@ void addGeneratedSurface(tinygltf::Model& m, const Scene& scene, const PatchMesh
   prim.attributes["POSITION"] = appendFloatAccessor(m, positions, TINYGLTF_TYPE_VEC3, 3, true);
   prim.attributes["NORMAL"] = appendFloatAccessor(m, normals, TINYGLTF_TYPE_VEC3, 3, false);
   prim.indices = appendIndexAccessor(m, surface.triangles);
-  addBakeAttributes(m, prim, radiance);
+  addBakeAttributes(m, prim, radiance, colors);
 
   tinygltf::Mesh out;
   out.name = std::filesystem::path(scene.path).stem().string();
@@ -399,26 +435,89 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
     }
   }
 
+  // The radiance each output vertex carries, per baked primitive and per generated surface.
+  std::vector<std::vector<Vec3>> radiance(scene.primitives.size() + mesh.generated.size());
+  for (size_t p = 0; p < scene.primitives.size(); ++p) {
+    const PrimitivePatches& patches = mesh.primitives[p];
+    radiance[p].resize(patches.patchVertex.size());
+    for (size_t v = 0; v < radiance[p].size(); ++v)
+      radiance[p][v] = !patches.patch.empty() && !patchRadiance.empty() ? patchRadiance[patches.patch[v]]
+                       : patches.patchVertex[v] == UINT32_MAX ? scene.materials[scene.primitives[p].material].emission
+                                                              : vertexRadiance[patches.patchVertex[v]];
+  }
+  for (size_t g = 0; g < mesh.generated.size(); ++g)
+    for (uint32_t v : mesh.generated[g].patchVertex) radiance[scene.primitives.size() + g].push_back(vertexRadiance[v]);
+
+  // Display shaping: one exposure for the whole scene, set from the surfaces that only reflect.
+  auto materialOf = [&](size_t k) -> const Material& {
+    return scene.materials[k < scene.primitives.size() ? scene.primitives[k].material
+                                                       : mesh.generated[k - scene.primitives.size()].material];
+  };
+  std::vector<Vec3> reflected, all;
+  for (size_t k = 0; k < radiance.size(); ++k) {
+    const Material& material = materialOf(k);
+    const bool emits = material.emission.x > 0 || material.emission.y > 0 || material.emission.z > 0;
+    if (!emits) reflected.insert(reflected.end(), radiance[k].begin(), radiance[k].end());
+    all.insert(all.end(), radiance[k].begin(), radiance[k].end());
+  }
+  summary.display = resolveDisplay(options.display, reflected);
+  const std::vector<Vec3> codes = toDisplay(summary.display, all);
+
+  // COLOR_0 = the display value back in glTF's linear color, divided by what the unlit material
+  // multiplies it with (its base color texture), clamped to glTF's [0,1].
+  size_t next = 0;
+  auto colorsOf = [&](size_t k, const std::vector<Vec3>& texture) {
+    std::vector<Vec3> colors(radiance[k].size());
+    for (size_t v = 0; v < colors.size(); ++v, ++next) {
+      const Vec3& code = codes[next];
+      const Vec3 t = texture.empty() ? Vec3{1, 1, 1} : texture[v];
+      auto channel = [&](double c, double tex) {
+        const double wanted = srgbDecode(c);
+        if (wanted <= 0) return 0.0;
+        if (wanted > tex + 1e-6) ++summary.clampedColors;
+        return tex > 0 ? std::min(1.0, wanted / tex) : 1.0;
+      };
+      colors[v] = {channel(code.x, t.x), channel(code.y, t.y), channel(code.z, t.z)};
+    }
+    return colors;
+  };
+
+  std::set<int> unlit;
+  int defaultUnlit = -1;  // primitives without a material get one unlit white material
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
     const Primitive& prim = scene.primitives[p];
     const PrimitivePatches& patches = mesh.primitives[p];
     tinygltf::Primitive& target = m.meshes[meshOfNode[prim.node]].primitives[prim.primitive];
-    std::vector<Vec3> radiance(patches.patchVertex.size());
-    for (size_t v = 0; v < radiance.size(); ++v)
-      radiance[v] = !patches.patch.empty() && !patchRadiance.empty() ? patchRadiance[patches.patch[v]]
-                    : patches.patchVertex[v] == UINT32_MAX       ? scene.materials[prim.material].emission
-                                                                 : vertexRadiance[patches.patchVertex[v]];
     if (!patches.keepsSourceVertices) target = tessellatedPrimitive(m, target, prim, patches);
-    addBakeAttributes(m, target, radiance);
+    addBakeAttributes(m, target, radiance[p], colorsOf(p, textureAtVertices(scene, prim, patches)));
+    if (target.material >= 0) {
+      unlit.insert(target.material);
+    } else {
+      if (defaultUnlit < 0) {
+        tinygltf::Material material;
+        material.name = "radbake default (unlit)";
+        makeUnlit(material);
+        m.materials.push_back(material);
+        defaultUnlit = int(m.materials.size()) - 1;
+      }
+      target.material = defaultUnlit;
+    }
     ++summary.bakedPrimitives;
-    summary.writtenVertices += radiance.size();
+    summary.writtenVertices += radiance[p].size();
   }
+  for (int material : unlit) makeUnlit(m.materials[material]);
+  summary.unlitMaterials = int(unlit.size()) + (defaultUnlit >= 0);
 
-  for (const GeneratedSurface& surface : mesh.generated) {
-    addGeneratedSurface(m, scene, mesh, surface, vertexRadiance);
+  for (size_t g = 0; g < mesh.generated.size(); ++g) {
+    const size_t k = scene.primitives.size() + g;
+    addGeneratedSurface(m, scene, mesh, mesh.generated[g], radiance[k], colorsOf(k, {}));
     ++summary.bakedPrimitives;
-    summary.writtenVertices += surface.patchVertex.size();
+    ++summary.unlitMaterials;
+    summary.writtenVertices += radiance[k].size();
   }
+  if (summary.unlitMaterials > 0 &&
+      std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), "KHR_materials_unlit") == m.extensionsUsed.end())
+    m.extensionsUsed.push_back("KHR_materials_unlit");
   writeFileAtomically(path, serialize(m, ext == ".glb", options.pretty));
   return summary;
 }

@@ -17,6 +17,7 @@
 #include <tuple>
 
 #include "exporters/exporters.h"
+#include "radiosity/radiosity.h"
 #include "plugin/cli/cli.h"
 
 namespace fs = std::filesystem;
@@ -123,15 +124,28 @@ void checkRoundTrip(const fs::path& input, const fs::path& output, int* retessel
   ASSERT_TRUE(loadModel(input, &in));
   ASSERT_TRUE(loadModel(output, &out));
 
+  // Baked primitives without a material get one shared unlit material, appended.
+  bool materialless = false, baked = false;
+  std::set<int> bakedMaterials;
+  for (size_t i = 0; i < in.meshes.size(); ++i)
+    for (size_t p = 0; p < in.meshes[i].primitives.size(); ++p) {
+      const bool bakedHere = out.meshes[i].primitives[p].attributes.count("_RADIANCE") > 0;
+      baked |= bakedHere;
+      materialless |= bakedHere && in.meshes[i].primitives[p].material < 0;
+      if (bakedHere) bakedMaterials.insert(in.meshes[i].primitives[p].material);
+    }
   EXPECT_EQ(out.nodes.size(), in.nodes.size());
-  EXPECT_EQ(out.materials.size(), in.materials.size());
+  EXPECT_EQ(out.materials.size(), in.materials.size() + materialless);
   EXPECT_EQ(out.textures.size(), in.textures.size());
   EXPECT_EQ(out.images.size(), in.images.size());
   EXPECT_EQ(out.scenes.size(), in.scenes.size());
   EXPECT_EQ(out.animations.size(), in.animations.size());
   EXPECT_EQ(out.skins.size(), in.skins.size());
   EXPECT_EQ(out.cameras.size(), in.cameras.size());
-  EXPECT_EQ(out.extensionsUsed, in.extensionsUsed);
+  auto extensionsUsed = in.extensionsUsed;
+  if (baked && std::find(extensionsUsed.begin(), extensionsUsed.end(), "KHR_materials_unlit") == extensionsUsed.end())
+    extensionsUsed.push_back("KHR_materials_unlit");
+  EXPECT_EQ(out.extensionsUsed, extensionsUsed);
   EXPECT_EQ(extrasOf(out.asset.extras), extrasOf(in.asset.extras));
   // Meshes: the originals in order (instances beyond the first get appended copies).
   ASSERT_GE(out.meshes.size(), in.meshes.size());
@@ -142,7 +156,11 @@ void checkRoundTrip(const fs::path& input, const fs::path& output, int* retessel
     for (size_t p = 0; p < in.meshes[i].primitives.size(); ++p) {
       const auto& pi = in.meshes[i].primitives[p];
       const auto& po = out.meshes[i].primitives[p];
-      EXPECT_EQ(po.material, pi.material);
+      if (pi.material >= 0 || !po.attributes.count("_RADIANCE")) {
+        EXPECT_EQ(po.material, pi.material);
+      } else {
+        EXPECT_EQ(po.material, int(in.materials.size()));
+      }
       // The bake keeps the glTF vertices (and so their accessors) unless a vertex had to split:
       // a flat-shaded vertex shared by non-coplanar faces. Then every attribute is re-sampled.
       if (po.attributes.at("POSITION") != pi.attributes.at("POSITION")) {
@@ -172,11 +190,24 @@ void checkRoundTrip(const fs::path& input, const fs::path& output, int* retessel
       EXPECT_EQ(out.meshes[out.nodes[i].mesh].primitives.size(), in.meshes[in.nodes[i].mesh].primitives.size());
     }
   }
+  // Baked materials turn unlit with a white base color factor; the original factor moves to extras.
   for (size_t i = 0; i < in.materials.size(); ++i) {
-    EXPECT_EQ(out.materials[i].name, in.materials[i].name);
-    EXPECT_EQ(out.materials[i].emissiveFactor, in.materials[i].emissiveFactor);
-    EXPECT_EQ(out.materials[i].pbrMetallicRoughness.baseColorFactor, in.materials[i].pbrMetallicRoughness.baseColorFactor);
-    EXPECT_EQ(out.materials[i].extensions.size(), in.materials[i].extensions.size());
+    const auto &mi = in.materials[i], &mo = out.materials[i];
+    EXPECT_EQ(mo.name, mi.name);
+    EXPECT_EQ(mo.emissiveFactor, mi.emissiveFactor);
+    if (!bakedMaterials.count(int(i))) {
+      EXPECT_EQ(mo.pbrMetallicRoughness.baseColorFactor, mi.pbrMetallicRoughness.baseColorFactor);
+      EXPECT_EQ(mo.extensions.size(), mi.extensions.size());
+      continue;
+    }
+    EXPECT_EQ(mo.pbrMetallicRoughness.baseColorTexture.index, mi.pbrMetallicRoughness.baseColorTexture.index);
+    const auto& factor = mi.pbrMetallicRoughness.baseColorFactor;
+    EXPECT_EQ(mo.pbrMetallicRoughness.baseColorFactor, (std::vector<double>{1, 1, 1, factor[3]}));
+    const auto& kept = mo.extras.Get("radbake").Get("baseColorFactor");
+    ASSERT_EQ(kept.ArrayLen(), 4u);
+    for (int c = 0; c < 4; ++c) EXPECT_EQ(kept.Get(c).GetNumberAsDouble(), factor[c]);
+    EXPECT_EQ(mo.extensions.size(), mi.extensions.size() + !mi.extensions.count("KHR_materials_unlit"));
+    EXPECT_TRUE(mo.extensions.count("KHR_materials_unlit"));
   }
   for (size_t i = 0; i < in.images.size(); ++i) EXPECT_EQ(out.images[i].image, in.images[i].image) << "image " << i;
 }
@@ -231,11 +262,43 @@ TEST(RoundTrip, InstancedMeshGetsOneBakePerNode) {
   EXPECT_EQ(meshes.size(), 6u);
 }
 
-std::vector<float> radianceOf(const tinygltf::Model& m, const tinygltf::Primitive& prim) {
-  const std::string bytes = accessorBytes(m, prim.attributes.at("_RADIANCE"));
+std::vector<float> floatAttribute(const tinygltf::Model& m, const tinygltf::Primitive& prim, const std::string& semantic) {
+  const std::string bytes = accessorBytes(m, prim.attributes.at(semantic));
   std::vector<float> values(bytes.size() / 4);
   std::memcpy(values.data(), bytes.data(), bytes.size());
   return values;
+}
+
+std::vector<float> radianceOf(const tinygltf::Model& m, const tinygltf::Primitive& prim) {
+  return floatAttribute(m, prim, "_RADIANCE");
+}
+
+TEST(Bake, WrittenRadianceIsTheSolutionBitForBitAndReimports) {
+  const radbake::Scene scene = radbake::importScene((kShared / "scenes" / "cornell_box.gltf").string());
+  radbake::TessellateOptions options;
+  options.subdivide = 3;
+  const radbake::PatchMesh mesh = radbake::tessellate(scene, options);
+  const radbake::Solution solution = radbake::solveRadiosity(scene, mesh);
+  const fs::path out = tempDir() / "bits.glb";
+  radbake::writeGltf(out.string(), scene, mesh, solution.vertexRadiance);
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  size_t compared = 0;
+  for (size_t p = 0; p < scene.primitives.size(); ++p) {
+    const auto& prim = scene.primitives[p];
+    const auto values = radianceOf(m, m.meshes[prim.mesh].primitives[prim.primitive]);
+    const auto& patchVertex = mesh.primitives[p].patchVertex;
+    ASSERT_EQ(values.size(), 3 * patchVertex.size());
+    for (size_t v = 0; v < patchVertex.size(); ++v, ++compared) {
+      const radbake::Vec3& L = solution.vertexRadiance[patchVertex[v]];
+      EXPECT_EQ(values[3 * v], float(L.x));
+      EXPECT_EQ(values[3 * v + 1], float(L.y));
+      EXPECT_EQ(values[3 * v + 2], float(L.z));
+    }
+  }
+  EXPECT_GT(compared, 300u);
+  // The baked file is itself valid input (unlit materials and all): it bakes again.
+  EXPECT_EQ(radbake({"bake", out.string(), "-o", (tempDir() / "again.glb").string(), "-q"}).code, 0);
 }
 
 TEST(Bake, FurnaceRadianceIsTwoInTheWrittenFile) {
@@ -282,7 +345,7 @@ TEST(Bake, ConstantMethodIsWrittenFlatShaded) {
   EXPECT_EQ(runValidator({out}, &log), 0) << log;
 }
 
-TEST(Bake, ReimportingGivesTheSameRadianceBitForBit) {
+TEST(Bake, TwoBakesAreBitIdentical) {
   const fs::path first = tempDir() / "cornell_first.glb", second = tempDir() / "cornell_second.glb";
   ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", first.string(), "-q"}).code, 0);
   ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", second.string(), "-q"}).code, 0);
@@ -824,15 +887,226 @@ TEST(Cli, UsageErrorsAreExit1) {
 TEST(Cli, UnbuiltOptionsAreExit3AndSaySo) {
   const std::string in = (kShared / "scenes" / "furnace_cube.gltf").string();
   const std::string out = (tempDir() / "unbuilt.glb").string();
-  for (const std::vector<std::string>& extra :
-       {std::vector<std::string>{"--lightmap", "x.exr"}, {"--exposure", "1"}, {"--ocio-config", "c.ocio"}}) {
-    std::vector<std::string> args{"bake", in, "-o", out};
-    args.insert(args.end(), extra.begin(), extra.end());
-    const RunResult r = radbake(args);
-    EXPECT_EQ(r.code, 3) << extra[0];
-    EXPECT_NE(r.err.find("not built yet"), std::string::npos) << r.err;
-    EXPECT_FALSE(fs::exists(out));
+  const RunResult r = radbake({"bake", in, "-o", out, "--lightmap", "x.exr"});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.err.find("not built yet"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// The sRGB encoding written out here from IEC 61966-2-1, independent of radbake and OCIO.
+double srgbEncodeReference(double x) { return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055; }
+double srgbDecodeReference(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+TEST(Display, BuiltInStandardViewIsTheSrgbEncoding) {
+  radbake::DisplayOptions options;
+  options.view = "Standard";
+  options.exposure = 0;
+  const radbake::DisplayShaping shaping = radbake::resolveDisplay(options);
+  EXPECT_EQ(shaping.options.display, "sRGB");
+  const std::vector<double> linear{0, 0.001, 0.0031308, 0.01, 0.18, 0.5, 0.9, 1.0};
+  std::vector<radbake::Vec3> in;
+  for (double x : linear) in.push_back({x, x, x});
+  const auto codes = radbake::toDisplay(shaping, in);
+  for (size_t i = 0; i < linear.size(); ++i) {
+    // OCIO computes in single precision and makes the toe continuous (slope 12.923 where the
+    // standard rounds to 12.92): 3e-6 at the toe, a thousandth of an 8-bit code value.
+    EXPECT_NEAR(codes[i].x, srgbEncodeReference(linear[i]), 5e-6) << linear[i];
+    EXPECT_EQ(codes[i].x, codes[i].z);
   }
+  // Exposure is a gain of 2^EV on the radiance; above 1 the Standard view clips.
+  options.exposure = -1;
+  EXPECT_NEAR(radbake::toDisplay(radbake::resolveDisplay(options), {{0.36, 0.36, 0.36}})[0].x,
+              srgbEncodeReference(0.18), 2e-6);
+  EXPECT_EQ(radbake::toDisplay(radbake::resolveDisplay(options), {{5, 5, 5}})[0].x, 1.0);
+}
+
+TEST(Display, AcesViewRollsHighlightsOffInsteadOfClipping) {
+  radbake::DisplayOptions options;  // built-in default view
+  options.exposure = 0;
+  const radbake::DisplayShaping shaping = radbake::resolveDisplay(options);
+  EXPECT_EQ(shaping.options.view, "ACES 1.0 SDR-video");
+  std::vector<radbake::Vec3> in;
+  for (double x = 0.01; x < 10; x *= 2) in.push_back({x, x, x});
+  const auto codes = radbake::toDisplay(shaping, in);
+  // Still rising at 5 (the Standard view clipped at 1); ACES 1.0 SDR reaches white near 16.
+  for (size_t i = 1; i < codes.size(); ++i) EXPECT_GT(codes[i].y, codes[i - 1].y) << in[i].y;
+  EXPECT_LT(codes.back().y, 0.99);
+  // Mid grey lands where the ACES 1.0 SDR output puts it (0.18 → about 0.39 code value, darker
+  // than the Standard view's 0.46 because the tone scale reserves room for highlights).
+  const double grey = radbake::toDisplay(shaping, {{0.18, 0.18, 0.18}})[0].y;
+  EXPECT_GT(grey, 0.3);
+  EXPECT_LT(grey, srgbEncodeReference(0.18));
+}
+
+// A user config: one display whose only view is a pure 2.2 gamma.
+fs::path writeGammaConfig() {
+  const fs::path path = tempDir() / "gamma22.ocio";
+  std::ofstream(path) << R"(ocio_profile_version: 2
+roles:
+  default: linear
+  scene_linear: linear
+displays:
+  Plain:
+    - !<View> {name: Gamma 2.2, colorspace: gamma22}
+colorspaces:
+  - !<ColorSpace>
+    name: linear
+  - !<ColorSpace>
+    name: gamma22
+    to_scene_reference: !<ExponentTransform> {value: 2.2}
+)";
+  return path;
+}
+
+TEST(Display, AConfigFileIsHonoured) {
+  radbake::DisplayOptions options;
+  options.config = writeGammaConfig().string();
+  options.exposure = 1;
+  const radbake::DisplayShaping shaping = radbake::resolveDisplay(options);
+  EXPECT_EQ(shaping.options.display, "Plain");
+  EXPECT_EQ(shaping.options.view, "Gamma 2.2");
+  EXPECT_NEAR(radbake::toDisplay(shaping, {{0.1, 0.2, 0.3}})[0].z, std::pow(0.6, 1 / 2.2), 1e-6);
+
+  // Through the command line, both as --ocio-config and as $OCIO: COLOR_0 is the decoded display value.
+  const fs::path dir = tempDir();
+  const std::string in = (kShared / "scenes" / "cornell_box.gltf").string();
+  for (bool viaEnvironment : {false, true}) {
+    const fs::path out = dir / (viaEnvironment ? "env.glb" : "flag.glb");
+    std::vector<std::string> args{"bake", in, "-o", out.string(), "--exposure", "0.5", "-q"};
+    if (viaEnvironment) {
+      setenv("OCIO", options.config.c_str(), 1);
+    } else {
+      args.insert(args.end(), {"--ocio-config", options.config});
+    }
+    const RunResult r = radbake(args);
+    unsetenv("OCIO");
+    ASSERT_EQ(r.code, 0) << r.err;
+    tinygltf::Model m;
+    ASSERT_TRUE(loadModel(out, &m));
+    double worst = 0;
+    for (const auto& mesh : m.meshes)
+      for (const auto& prim : mesh.primitives) {
+        const auto L = floatAttribute(m, prim, "_RADIANCE"), color = floatAttribute(m, prim, "COLOR_0");
+        ASSERT_EQ(L.size(), color.size());
+        for (size_t i = 0; i < L.size(); ++i) {
+          const double expected = srgbDecodeReference(std::min(1.0, std::pow(std::sqrt(2.0) * L[i], 1 / 2.2)));
+          worst = std::max(worst, std::abs(color[i] - expected));
+        }
+      }
+    EXPECT_LT(worst, 1e-5) << (viaEnvironment ? "$OCIO" : "--ocio-config");
+  }
+}
+
+TEST(Display, ABadConfigOrViewIsOneClearLine) {
+  const fs::path dir = tempDir();
+  const fs::path bad = dir / "broken.ocio";
+  std::ofstream(bad) << "ocio_profile_version: 2\nroles: [this is not a config\n";
+  const std::string in = (kShared / "scenes" / "furnace_cube.gltf").string();
+  const std::string out = (dir / "bad.glb").string();
+  RunResult r = radbake({"bake", in, "-o", out, "--ocio-config", bad.string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err.rfind("error: " + bad.string() + ": not a usable OpenColorIO config: ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  r = radbake({"bake", in, "-o", out, "--ocio-config", (dir / "missing.ocio").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("missing.ocio: not a usable OpenColorIO config"), std::string::npos) << r.err;
+  r = radbake({"bake", in, "-o", out, "--view", "Filmic"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("--view \"Filmic\" is not a view of display \"sRGB\""), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("views: ACES 1.0 SDR-video, Standard"), std::string::npos) << r.err;
+  r = radbake({"bake", in, "-o", out, "--display", "P3", "--ocio-config", writeGammaConfig().string()});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("(displays: Plain)"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Display, CornellColorsAreTheStandardViewAndMaterialsUnlit) {
+  const fs::path dir = tempDir();
+  const fs::path out = dir / "standard.glb", report = dir / "standard.json";
+  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+                               "--view", "Standard", "--exposure", "1", "--report", report.string(), "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  long long compared = 0;
+  for (const auto& mesh : m.meshes)
+    for (const auto& prim : mesh.primitives) {
+      const auto L = floatAttribute(m, prim, "_RADIANCE"), color = floatAttribute(m, prim, "COLOR_0");
+      for (size_t i = 0; i < L.size(); ++i, ++compared) EXPECT_NEAR(color[i], std::min(1.0, 2.0 * L[i]), 1e-5);
+      const auto& material = m.materials.at(prim.material);
+      EXPECT_TRUE(material.extensions.count("KHR_materials_unlit"));
+      EXPECT_EQ(material.pbrMetallicRoughness.baseColorFactor, (std::vector<double>{1, 1, 1, 1}));
+    }
+  EXPECT_GT(compared, 250);
+  const json rep = json::parse(std::ifstream(report));
+  EXPECT_EQ(rep["display"]["view"], "Standard");
+  EXPECT_EQ(rep["display"]["exposure"], 1.0);
+  EXPECT_EQ(rep["display"]["automaticExposure"], false);
+}
+
+TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileAtTheTarget) {
+  const fs::path dir = tempDir();
+  const fs::path out = dir / "auto.glb", report = dir / "auto.json";
+  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+                               "--report", report.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  std::vector<double> luminance;  // the non-emitting surfaces' vertices, recomputed from the file
+  for (const auto& mesh : m.meshes)
+    for (const auto& prim : mesh.primitives) {
+      const auto& emissive = m.materials.at(prim.material).emissiveFactor;
+      if (emissive.size() == 3 && emissive[0] + emissive[1] + emissive[2] > 0) continue;
+      const auto L = floatAttribute(m, prim, "_RADIANCE");
+      for (size_t i = 0; i < L.size(); i += 3) luminance.push_back(0.2126 * L[i] + 0.7152 * L[i + 1] + 0.0722 * L[i + 2]);
+    }
+  std::sort(luminance.begin(), luminance.end());
+  const double p90 = luminance[size_t(0.9 * double(luminance.size()))];
+  const json rep = json::parse(std::ifstream(report));
+  EXPECT_EQ(rep["display"]["automaticExposure"], true);
+  EXPECT_NEAR(rep["display"]["keyLuminance"].get<double>(), p90, 1e-6 * p90);
+  EXPECT_NEAR(rep["display"]["exposure"].get<double>(), std::log2(0.8 / p90), 1e-5);
+  EXPECT_NE(r.out.find("exposure +"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("EV (automatic)"), std::string::npos) << r.out;
+}
+
+TEST(Display, TexturedColorsTimesTheTextureGiveTheDisplayValue) {
+  // A uniform mid-grey texture (sRGB 128 → linear 0.2158) lit by 3 lx from straight above:
+  // L = ρ·3/π. The unlit viewer shows texture × COLOR_0, so COLOR_0 = L/ρ = 3/π.
+  const std::string png = tinyPng(1, 1, {128, 128, 128});
+  std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, -1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0};
+  const uint16_t indices[6] = {0, 1, 2, 0, 2, 3};
+  std::memcpy(data.data() + 20, indices, sizeof indices);
+  const double h = std::sqrt(0.5);
+  const std::string gltf = R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
+    "extensions":{"KHR_lights_punctual":{"lights":[{"type":"directional","intensity":3}]}},
+    "scene":0,"scenes":[{"nodes":[0,1]}],
+    "nodes":[{"mesh":0},{"rotation":[-)" + std::to_string(h) + ",0,0," + std::to_string(h) + R"(],
+              "extensions":{"KHR_lights_punctual":{"light":0}}}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
+    "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}}],
+    "textures":[{"source":0}],
+    "images":[{"uri":"data:image/png;base64,)" + base64Bytes(png) + R"("}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
+                 {"bufferView":0,"byteOffset":48,"componentType":5126,"count":4,"type":"VEC2"},
+                 {"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}],
+    "bufferViews":[{"buffer":0,"byteLength":80},{"buffer":0,"byteOffset":80,"byteLength":12}],
+    "buffers":[{"byteLength":96,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+  const fs::path dir = tempDir(), in = dir / "grey.gltf", out = dir / "grey.glb";
+  std::ofstream(in) << gltf;
+  const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--view", "Standard", "--exposure", "0", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  const auto& prim = m.meshes[0].primitives[0];
+  const auto L = floatAttribute(m, prim, "_RADIANCE"), color = floatAttribute(m, prim, "COLOR_0");
+  const double rho = srgbDecodeReference(128 / 255.0);
+  ASSERT_EQ(L.size(), 12u);
+  for (size_t i = 0; i < L.size(); ++i) {
+    EXPECT_NEAR(L[i], rho * 3 / kPi, 1e-6);
+    EXPECT_NEAR(color[i], 3 / kPi, 1e-5);
+  }
+  EXPECT_EQ(m.materials[0].pbrMetallicRoughness.baseColorTexture.index, 0);  // the texture keeps working
 }
 
 TEST(Cli, VersionAndHelp) {

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -73,8 +74,6 @@ class Progress {
 // Options whose stage is not built yet: refuse with exit 3 rather than ignore them.
 std::string unbuiltOption(const Options& o) {
   if (!o.lightmap.empty()) return "--lightmap (lightmap output is not built yet)";
-  if (o.exposure || !o.view.empty() || !o.display.empty() || !o.ocioConfig.empty())
-    return "--exposure/--view/--display/--ocio-config (OpenColorIO display shaping is not built yet)";
   return "";
 }
 
@@ -213,6 +212,11 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (options.probe.empty() != options.probeOut.empty())
     throw Error(ExitCode::kUsage, "radbake: --probe and --probe-out go together");
   const auto probes = options.probe.empty() ? std::vector<std::pair<Vec3, Vec3>>{} : readProbes(options.probe);
+  ExportOptions exportOptions;
+  exportOptions.display = {options.ocioConfig, options.display, options.view, options.exposure};
+  if (exportOptions.display.config.empty())
+    if (const char* env = std::getenv("OCIO"); env && *env) exportOptions.display.config = env;
+  resolveDisplay(exportOptions.display);  // a bad config or view fails now, not after the solve
 
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, options.threads);
@@ -246,8 +250,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   const Solution solution = solveRadiosity(scene, mesh, radiosityOptions);
   const auto t3 = Clock::now();
   progress.stage("export");
-  const ExportSummary summary = writeGltf(options.output, scene, mesh, solution.vertexRadiance,
-                                          options.method == "constant" ? solution.patchRadiance : std::vector<Vec3>{});
+  const ExportSummary summary =
+      writeGltf(options.output, scene, mesh, solution.vertexRadiance,
+                options.method == "constant" ? solution.patchRadiance : std::vector<Vec3>{}, exportOptions);
   if (!probes.empty()) writeFileAtomically(options.probeOut, probeValues(probes, solution, mesh));
   const auto t4 = Clock::now();
   progress.finishBar();
@@ -267,6 +272,11 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree}}},
         {"energy", {{"emittedPower", solution.emittedPower}, {"absorbedPower", solution.absorbedPower},
                     {"escapedFraction", solution.emittedPower > 0 ? 1 - solution.absorbedPower / solution.emittedPower : 0.0}}},
+        {"display", {{"config", summary.display.configName}, {"display", summary.display.options.display},
+                     {"view", summary.display.options.view}, {"exposure", summary.display.exposure},
+                     {"automaticExposure", summary.display.automatic},
+                     {"keyLuminance", summary.display.keyLuminance},
+                     {"unlitMaterials", summary.unlitMaterials}, {"clampedColorComponents", summary.clampedColors}}},
         {"timings", {{"import", seconds(t0, t1)}, {"tessellate", seconds(t1, t2)}, {"solve", seconds(t2, t3)},
                      {"export", seconds(t3, t4)}, {"total", seconds(t0, t4)}}},
         {"warnings", scene.warnings}};
@@ -275,7 +285,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (!options.quiet)
     out << "radbake: wrote " << options.output << " (" << mesh.patches.size() << " patches, "
         << mesh.positions.size() << " vertices, " << std::fixed << std::setprecision(2) << seconds(t0, t4)
-        << " s)\n";
+        << " s); COLOR_0: " << summary.display.options.view << ", exposure " << std::showpos
+        << summary.display.exposure << std::noshowpos << " EV" << (summary.display.automatic ? " (automatic)" : "")
+        << "\n";
   return 0;
 }
 
@@ -307,9 +319,10 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--scene", o.scene, "the glTF scene to bake (default: the file's default scene)")
       ->check(CLI::NonNegativeNumber);
   bakeCmd->add_option("--lightmap", o.lightmap, "also write an HDR lightmap atlas (.exr)");
-  bakeCmd->add_option("--exposure", o.exposure, "exposure in EV for COLOR_0 and previews");
-  bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0");
-  bakeCmd->add_option("--display", o.display, "OCIO display for COLOR_0");
+  bakeCmd->add_option("--exposure", o.exposure,
+                      "exposure in EV for COLOR_0 and previews (default: automatic, the 90th percentile of lit surfaces at 0.8)");
+  bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0 (built in: \"ACES 1.0 SDR-video\" (default), \"Standard\")");
+  bakeCmd->add_option("--display", o.display, "OCIO display for COLOR_0 (built in: \"sRGB\")");
   bakeCmd->add_option("--ocio-config", o.ocioConfig, "OCIO config file (default: $OCIO, else built in)");
   bakeCmd->add_option("--probe", o.probe, "CSV of surface points x,y,z,nx,ny,nz to evaluate");
   bakeCmd->add_option("--probe-out", o.probeOut, "CSV written with x,y,z,r,g,b for each probe");
