@@ -8,6 +8,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "importers/importers.h"
@@ -47,9 +48,28 @@ std::vector<Vec3> toDisplay(const DisplayShaping& shaping, const std::vector<Vec
 double srgbDecode(double code);
 double srgbEncode(double linear);
 
+// --lightmap: the light goes into an HDR texture atlas instead of COLOR_0 (docs/lightmaps.md).
+struct LightmapOptions {
+  std::string path;      // the .exr to write; empty: no lightmap, COLOR_0 and unlit materials instead
+  int size = 1024;       // the largest atlas width and height, in texels
+  double texelSize = 0;  // world units per texel; 0: the finest that fits in size × size
+};
+
 struct ExportOptions {
   bool pretty = false;  // indent the JSON of a .gltf
   DisplayOptions display;
+  LightmapOptions lightmap;
+};
+
+struct LightmapSummary {
+  std::string exr, preview;  // the files written beside the glTF
+  int width = 0, height = 0, charts = 0;
+  double texelSize = 0;      // world units per texel (0 with the asset's own TEXCOORD_1)
+  double fill = 0;           // the fraction of texels inside charts
+  double intensity = 0;      // MOZ_lightmap.intensity: the embedded PNG holds sRGB(E / intensity)
+  bool assetUVs = false;     // the asset's own TEXCOORD_1 was used
+  int texCoord = 1;          // the TEXCOORD set the lightmap reads (1 unless a texture uses set 1)
+  std::string atlasReason;   // why the asset's TEXCOORD_1 was not used (empty: it was, or there was none)
 };
 
 struct ExportSummary {
@@ -59,9 +79,11 @@ struct ExportSummary {
   long long writtenVertices = 0;
   long long clampedColors = 0;  // COLOR_0 components clamped to 1 (light × texture could not reach the display value)
   DisplayShaping display;
+  LightmapSummary lightmap;
 };
 
-// vertexRadiance: linear outgoing radiance per PatchMesh vertex; patchRadiance (may be empty): per
+// With options.lightmap.path set, also writes the EXR lightmap and its preview PNG (all files
+// together or none). vertexRadiance: linear outgoing radiance per PatchMesh vertex; patchRadiance (may be empty): per
 // patch, written on tessellations made with flatPatches (the constant method). Throws Error(kCannotWrite) when the
 // output cannot be written (and leaves nothing behind), Error(kUsage) for an unknown extension.
 ExportSummary writeGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
@@ -70,5 +92,9 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
 
 // Writes `bytes` to `path` atomically: a temporary file beside it, then rename.
 void writeFileAtomically(const std::string& path, const std::string& bytes);
+
+// Writes several files all or nothing: every temporary first, then the renames; on any failure
+// nothing of them is left behind (Error kCannotWrite naming the file).
+void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files);
 
 }  // namespace radbake

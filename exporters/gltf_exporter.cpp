@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "exporters/exporters.h"
+#include "exporters/image_files.h"
+#include "exporters/lightmap.h"
 #include "importers/gltf_document.h"
 
 namespace radbake {
@@ -66,6 +68,18 @@ int appendFloatAccessor(tinygltf::Model& m, const std::vector<float>& values, in
     }
   }
   m.accessors.push_back(acc);
+  return int(m.accessors.size()) - 1;
+}
+
+// JOINTS_n must stay unsigned integers: written as unsigned shorts.
+int appendJointsAccessor(tinygltf::Model& m, const std::vector<float>& values, int type, int components) {
+  std::vector<uint16_t> joints(values.begin(), values.end());
+  tinygltf::Accessor ja;
+  ja.bufferView = appendView(m, joints.data(), joints.size() * 2, kArrayBuffer);
+  ja.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+  ja.type = type;
+  ja.count = joints.size() / components;
+  m.accessors.push_back(ja);
   return int(m.accessors.size()) - 1;
 }
 
@@ -126,8 +140,11 @@ std::vector<float> radianceFloats(const std::vector<Vec3>& values) {
 }
 
 // glTF COLOR_n must stay contiguous from 0: the bake becomes COLOR_0, existing sets move up by one.
+// Without colors (lightmap output) only _RADIANCE is added.
 void addBakeAttributes(tinygltf::Model& m, tinygltf::Primitive& prim, const std::vector<Vec3>& radiance,
                        const std::vector<Vec3>& colors) {
+  prim.attributes["_RADIANCE"] = appendFloatAccessor(m, radianceFloats(radiance), TINYGLTF_TYPE_VEC3, 3, false);
+  if (colors.empty()) return;
   std::map<std::string, int> shifted;
   for (auto& [semantic, accessor] : prim.attributes) {
     if (semantic.rfind("COLOR_", 0) == 0) {
@@ -138,7 +155,6 @@ void addBakeAttributes(tinygltf::Model& m, tinygltf::Primitive& prim, const std:
   }
   std::erase_if(prim.attributes, [](const auto& kv) { return kv.first.rfind("COLOR_", 0) == 0; });
   prim.attributes.insert(shifted.begin(), shifted.end());
-  prim.attributes["_RADIANCE"] = appendFloatAccessor(m, radianceFloats(radiance), TINYGLTF_TYPE_VEC3, 3, false);
   prim.attributes["COLOR_0"] = appendFloatAccessor(m, radianceFloats(colors), TINYGLTF_TYPE_VEC3, 3, false);
 }
 
@@ -266,15 +282,7 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
     const bool direction = semantic == "NORMAL" || semantic == "TANGENT";
     auto [values, comps] = interpolate(accessor, integerSet, direction);
     if (integerSet) {
-      // JOINTS stay unsigned integers of the source's width.
-      std::vector<uint16_t> joints(values.begin(), values.end());
-      tinygltf::Accessor ja;
-      ja.bufferView = appendView(m, joints.data(), joints.size() * 2, kArrayBuffer);
-      ja.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-      ja.type = acc.type;
-      ja.count = joints.size() / comps;
-      m.accessors.push_back(ja);
-      out.attributes[semantic] = int(m.accessors.size()) - 1;
+      out.attributes[semantic] = appendJointsAccessor(m, values, acc.type, comps);
     } else {
       out.attributes[semantic] = appendFloatAccessor(m, values, acc.type, comps, semantic == "POSITION");
     }
@@ -283,16 +291,15 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
   return out;
 }
 
-// Curved input without a glTF primitive (a .bpt): a new node, mesh and material carry it.
-void addGeneratedSurface(tinygltf::Model& m, const Scene& scene, const PatchMesh& mesh, const GeneratedSurface& surface,
-                         const std::vector<Vec3>& radiance, const std::vector<Vec3>& colors) {
+// Curved input without a glTF primitive (a .bpt): a new node, mesh and material carry it. Returns
+// the new mesh; the bake attributes are added by the caller.
+int addGeneratedMesh(tinygltf::Model& m, const Scene& scene, const PatchMesh& mesh, const GeneratedSurface& surface) {
   const Material& material = scene.materials[surface.material];
   tinygltf::Material mat;
   mat.name = material.name;
   mat.pbrMetallicRoughness.baseColorFactor = {material.reflectance.x, material.reflectance.y, material.reflectance.z, 1};
   mat.pbrMetallicRoughness.metallicFactor = 0;
   mat.pbrMetallicRoughness.roughnessFactor = 1;
-  makeUnlit(mat);
   m.materials.push_back(mat);
 
   std::vector<float> positions, normals;
@@ -307,7 +314,6 @@ void addGeneratedSurface(tinygltf::Model& m, const Scene& scene, const PatchMesh
   prim.attributes["POSITION"] = appendFloatAccessor(m, positions, TINYGLTF_TYPE_VEC3, 3, true);
   prim.attributes["NORMAL"] = appendFloatAccessor(m, normals, TINYGLTF_TYPE_VEC3, 3, false);
   prim.indices = appendIndexAccessor(m, surface.triangles);
-  addBakeAttributes(m, prim, radiance, colors);
 
   tinygltf::Mesh out;
   out.name = std::filesystem::path(scene.path).stem().string();
@@ -319,6 +325,293 @@ void addGeneratedSurface(tinygltf::Model& m, const Scene& scene, const PatchMesh
   m.nodes.push_back(node);
   if (m.scenes.empty()) m.scenes.emplace_back();
   m.scenes[m.defaultScene >= 0 ? m.defaultScene : 0].nodes.push_back(int(m.nodes.size()) - 1);
+  return node.mesh;
+}
+
+// One baked glTF primitive in the output, with what its vertices carry.
+struct BakedPrimitive {
+  int mesh = -1, primitive = 0;     // in the output model
+  int material = 0;                 // Scene::materials
+  std::vector<Vec3> radiance;       // per output vertex
+  std::vector<Vec3> light;          // lightmaps: the light that multiplies albedo, per output vertex
+  std::vector<Vec3> texture;        // COLOR_0: the base color texture at each vertex (empty: none)
+  std::vector<Vec3> positions;      // world space, per output vertex
+  std::vector<std::array<uint32_t, 3>> triangles;  // in the output's winding
+};
+
+// The light that multiplies albedo (what three.js, Babylon.js and Hubs expect in a lightmap):
+// irradiance E = π (L − L⁰) / ρ, so that a Lambertian surface of albedo ρ shows ρ E / π. Zero
+// where the surface reflects nothing (ρ = 0), where no albedo can bring light back.
+Vec3 lightOf(const Vec3& radiance, const Vec3& emission, const Vec3& reflectance) {
+  constexpr double kPi = 3.14159265358979323846;
+  auto channel = [](double L, double L0, double rho) { return rho > 0 ? std::max(0.0, kPi * (L - L0) / rho) : 0.0; };
+  return {channel(radiance.x, emission.x, reflectance.x), channel(radiance.y, emission.y, reflectance.y),
+          channel(radiance.z, emission.z, reflectance.z)};
+}
+
+// The output primitive with every vertex attribute (and morph target) re-gathered through
+// `source` and new triangles: the atlas splits vertices where its charts meet.
+int gatherAccessor(tinygltf::Model& m, int index, const std::vector<uint32_t>& source, bool joints, bool bounds) {
+  const auto& acc = m.accessors[index];
+  const int comps = int(tinygltf::GetNumComponentsInType(acc.type));
+  const int type = acc.type;
+  const std::vector<double> values = readAccessorValues(m, index);
+  std::vector<float> out;
+  out.reserve(source.size() * comps);
+  for (uint32_t v : source)
+    for (int c = 0; c < comps; ++c) out.push_back(float(values[size_t(v) * comps + c]));
+  if (joints) return appendJointsAccessor(m, out, type, comps);
+  return appendFloatAccessor(m, out, type, comps, bounds);
+}
+
+void remapVertices(tinygltf::Model& m, tinygltf::Primitive& prim, const std::vector<uint32_t>& source,
+                   const std::vector<std::array<uint32_t, 3>>& triangles) {
+  for (auto& [semantic, accessor] : prim.attributes)
+    accessor = gatherAccessor(m, accessor, source, semantic.rfind("JOINTS_", 0) == 0, semantic == "POSITION");
+  for (auto& target : prim.targets)
+    for (auto& [semantic, accessor] : target) accessor = gatherAccessor(m, accessor, source, false, semantic == "POSITION");
+  prim.indices = appendIndexAccessor(m, triangles);
+  prim.mode = TINYGLTF_MODE_TRIANGLES;
+}
+
+// World position of each output vertex of a baked primitive.
+std::vector<Vec3> outputPositions(const Primitive& prim, const PrimitivePatches& patches) {
+  if (patches.keepsSourceVertices) return prim.positions;
+  if (!patches.positions.empty()) return patches.positions;  // a subdivision surface's limit points
+  std::vector<Vec3> out;
+  out.reserve(patches.source.size());
+  for (const SurfacePoint& sp : patches.source) {
+    const auto& t = prim.triangles[sp.triangle];
+    out.push_back(prim.positions[t[0]] * (1 - sp.w1 - sp.w2) + prim.positions[t[1]] * sp.w1 + prim.positions[t[2]] * sp.w2);
+  }
+  return out;
+}
+
+// The primitive's triangles in the file's own winding (the importer made them counter-clockwise in
+// world space, which flips them under a mirroring node).
+std::vector<std::array<uint32_t, 3>> sourceTriangles(const Primitive& prim) {
+  const auto& w = prim.world;
+  const double det = w[0] * (w[5] * w[10] - w[9] * w[6]) - w[4] * (w[1] * w[10] - w[9] * w[2]) +
+                     w[8] * (w[1] * w[6] - w[5] * w[2]);
+  std::vector<std::array<uint32_t, 3>> out = prim.triangles;
+  if (det < 0)
+    for (auto& t : out) std::swap(t[1], t[2]);
+  return out;
+}
+
+// COLOR_0 = the display value back in glTF's linear color, divided by what the unlit material
+// multiplies it with (its base color texture), clamped to glTF's [0,1]. `codes`: the display
+// values of every baked vertex, in order.
+void addVertexColors(tinygltf::Model& m, const std::vector<BakedPrimitive>& baked, const std::vector<Vec3>& codes,
+                     ExportSummary* summary) {
+  size_t next = 0;
+  auto channel = [&](double code, double tex) {
+    const double wanted = srgbDecode(code);
+    if (wanted <= 0) return 0.0;
+    if (wanted > tex + 1e-6) ++summary->clampedColors;
+    return tex > 0 ? std::min(1.0, wanted / tex) : 1.0;
+  };
+  std::set<int> unlit;
+  int defaultUnlit = -1;  // primitives without a material get one unlit white material
+  for (const BakedPrimitive& b : baked) {
+    std::vector<Vec3> colors(b.radiance.size());
+    for (size_t v = 0; v < colors.size(); ++v, ++next) {
+      const Vec3 t = b.texture.empty() ? Vec3{1, 1, 1} : b.texture[v];
+      colors[v] = {channel(codes[next].x, t.x), channel(codes[next].y, t.y), channel(codes[next].z, t.z)};
+    }
+    tinygltf::Primitive& target = m.meshes[b.mesh].primitives[b.primitive];
+    addBakeAttributes(m, target, b.radiance, colors);
+    if (target.material < 0) {
+      if (defaultUnlit < 0) {
+        tinygltf::Material material;
+        material.name = "radbake default (unlit)";
+        m.materials.push_back(material);
+        defaultUnlit = int(m.materials.size()) - 1;
+      }
+      target.material = defaultUnlit;
+    }
+    unlit.insert(target.material);
+  }
+  for (int material : unlit) makeUnlit(m.materials[material]);
+  summary->unlitMaterials = int(unlit.size());
+  if (!unlit.empty() &&
+      std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), "KHR_materials_unlit") == m.extensionsUsed.end())
+    m.extensionsUsed.push_back("KHR_materials_unlit");
+}
+
+bool usesTexCoord(const tinygltf::Material& material, int set) {
+  const auto& pbr = material.pbrMetallicRoughness;
+  auto uses = [&](int index, int texCoord) { return index >= 0 && texCoord == set; };
+  return uses(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord) ||
+         uses(pbr.metallicRoughnessTexture.index, pbr.metallicRoughnessTexture.texCoord) ||
+         uses(material.normalTexture.index, material.normalTexture.texCoord) ||
+         uses(material.occlusionTexture.index, material.occlusionTexture.texCoord) ||
+         uses(material.emissiveTexture.index, material.emissiveTexture.texCoord);
+}
+
+std::string previewPath(const std::string& exr) {
+  return std::filesystem::path(exr).replace_extension(".preview.png").string();
+}
+
+// The lightmap: the asset's own TEXCOORD_1 when every baked primitive has a usable one, else an
+// atlas of our own (vertices split where its charts meet); the light rasterized and dilated; an EXR
+// (half float, the exact light) and a preview through the display transform written beside the
+// glTF, and an sRGB PNG copy embedded and referenced from each material with MOZ_lightmap.
+LightmapSummary addLightmap(tinygltf::Model& m, std::vector<BakedPrimitive>& baked, const LightmapOptions& options,
+                            const DisplayShaping& shaping, std::vector<std::pair<std::string, std::string>>* files) {
+  LightmapSummary out;
+  out.exr = options.path;
+  out.preview = previewPath(options.path);
+  std::vector<AtlasPieceLayout> layout(baked.size());
+  bool own = !baked.empty();
+  for (size_t k = 0; k < baked.size() && own; ++k) {
+    const tinygltf::Primitive& prim = m.meshes[baked[k].mesh].primitives[baked[k].primitive];
+    const auto it = prim.attributes.find("TEXCOORD_1");
+    own = it != prim.attributes.end();
+    if (!own) break;
+    const std::vector<double> uv = readAccessorValues(m, it->second);
+    AtlasPieceLayout& piece = layout[k];
+    for (size_t v = 0; v < uv.size() / 2; ++v) {
+      piece.vertexSource.push_back(uint32_t(v));
+      piece.uv.push_back({float(uv[2 * v]), float(uv[2 * v + 1])});
+    }
+    piece.triangles = baked[k].triangles;
+    piece.chart.assign(piece.triangles.size(), int(k));
+  }
+  int width = options.size, height = options.size;
+  if (own) {
+    out.atlasReason = lightmapLayoutProblem(width, height, layout);
+    own = out.atlasReason.empty();
+  }
+  if (!own) {
+    std::vector<AtlasPiece> pieces;
+    for (const BakedPrimitive& b : baked) pieces.push_back({b.positions, b.triangles});
+    AtlasOptions atlasOptions;
+    atlasOptions.size = options.size;
+    atlasOptions.texelSize = options.texelSize;
+    Atlas atlas = buildAtlas(pieces, atlasOptions);
+    width = atlas.width;
+    height = atlas.height;
+    out.charts = atlas.charts;
+    out.texelSize = atlas.texelSize;
+    layout = std::move(atlas.pieces);
+    for (size_t k = 0; k < baked.size(); ++k) {
+      BakedPrimitive& b = baked[k];
+      remapVertices(m, m.meshes[b.mesh].primitives[b.primitive], layout[k].vertexSource, layout[k].triangles);
+      std::vector<Vec3> radiance, light;
+      for (uint32_t v : layout[k].vertexSource) {
+        radiance.push_back(b.radiance[v]);
+        light.push_back(b.light[v]);
+      }
+      b.radiance = std::move(radiance);
+      b.light = std::move(light);
+    }
+  } else {
+    out.assetUVs = true;
+    out.charts = int(baked.size());
+  }
+  out.width = width;
+  out.height = height;
+
+  // The texels.
+  std::vector<std::vector<Vec3>> values;
+  for (const BakedPrimitive& b : baked) values.push_back(b.light);
+  LightmapImage image = rasterize(width, height, layout, values);
+  const size_t texels = size_t(width) * height;
+  size_t inside = 0;
+  for (int owner : image.owner) inside += owner >= 0;
+  out.fill = texels ? double(inside) / double(texels) : 0;
+  dilate(image);
+  float peak = 0;
+  for (float v : image.rgb)
+    if (std::isfinite(v)) peak = std::max(peak, v);
+  out.intensity = peak > 0 ? peak : 1;
+
+  // The embedded PNG (glTF images cannot be EXR): sRGB-encoded E / intensity.
+  std::vector<uint8_t> codes(image.rgb.size()), preview(image.rgb.size());
+  for (size_t i = 0; i < image.rgb.size(); ++i)
+    codes[i] = uint8_t(std::lround(255 * srgbEncode(std::clamp(image.rgb[i] / out.intensity, 0.0, 1.0))));
+  // The preview: what a white (ρ = 1) surface would show, E/π, through the display transform.
+  std::vector<Vec3> whiteSurface(texels);
+  constexpr double kPi = 3.14159265358979323846;
+  for (size_t i = 0; i < texels; ++i)
+    whiteSurface[i] = Vec3{image.rgb[3 * i], image.rgb[3 * i + 1], image.rgb[3 * i + 2]} * (1 / kPi);
+  const std::vector<Vec3> shown = toDisplay(shaping, whiteSurface);
+  for (size_t i = 0; i < texels; ++i) {
+    preview[3 * i] = uint8_t(std::lround(255 * shown[i].x));
+    preview[3 * i + 1] = uint8_t(std::lround(255 * shown[i].y));
+    preview[3 * i + 2] = uint8_t(std::lround(255 * shown[i].z));
+  }
+  const std::string png = encodePng(width, height, codes);
+  tinygltf::Image pngImage;
+  pngImage.name = "radbake lightmap";
+  pngImage.mimeType = "image/png";
+  pngImage.bufferView = appendView(m, png.data(), png.size(), 0);
+  m.bufferViews.back().target = 0;
+  m.images.push_back(pngImage);
+  tinygltf::Sampler sampler;
+  sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+  sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+  sampler.wrapS = sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+  m.samplers.push_back(sampler);
+  tinygltf::Texture texture;
+  texture.name = "radbake lightmap";
+  texture.source = int(m.images.size()) - 1;
+  texture.sampler = int(m.samplers.size()) - 1;
+  m.textures.push_back(texture);
+  const int textureIndex = int(m.textures.size()) - 1;
+
+  // Per primitive: _RADIANCE, the lightmap UVs, and MOZ_lightmap on its material (copied when
+  // primitives sharing a material read the lightmap from different TEXCOORD sets).
+  std::map<std::pair<int, int>, int> lightmapMaterial;  // (material, set) → material in the output
+  std::set<int> claimed;
+  for (size_t k = 0; k < baked.size(); ++k) {
+    tinygltf::Primitive& prim = m.meshes[baked[k].mesh].primitives[baked[k].primitive];
+    addBakeAttributes(m, prim, baked[k].radiance, {});
+    int set = 1;
+    if (!own) {
+      std::vector<float> uv;
+      for (const auto& t : layout[k].uv) uv.insert(uv.end(), {t[0], t[1]});
+      const int accessor = appendFloatAccessor(m, uv, TINYGLTF_TYPE_VEC2, 2, false);
+      if (prim.material >= 0 && prim.attributes.count("TEXCOORD_1") && usesTexCoord(m.materials[prim.material], 1)) {
+        set = 0;  // set 1 feeds a texture: the lightmap takes the first free set instead
+        while (prim.attributes.count("TEXCOORD_" + std::to_string(set))) ++set;
+      }
+      prim.attributes["TEXCOORD_" + std::to_string(set)] = accessor;
+      for (int lower = 0; lower < set; ++lower)  // TEXCOORD sets must be contiguous from 0
+        prim.attributes.try_emplace("TEXCOORD_" + std::to_string(lower), accessor);
+    }
+    out.texCoord = std::max(out.texCoord, set);
+    auto [it, added] = lightmapMaterial.try_emplace({prim.material, set}, -1);
+    if (added) {
+      tinygltf::Material material;
+      if (prim.material >= 0) {
+        material = m.materials[prim.material];
+      } else {
+        material.name = "radbake default";  // radbake bakes glTF's default material as white and diffuse
+        material.pbrMetallicRoughness.metallicFactor = 0;
+      }
+      tinygltf::Value::Object ext;
+      ext["index"] = tinygltf::Value(textureIndex);
+      ext["texCoord"] = tinygltf::Value(set);
+      ext["intensity"] = tinygltf::Value(out.intensity);
+      material.extensions["MOZ_lightmap"] = tinygltf::Value(ext);
+      if (prim.material >= 0 && claimed.insert(prim.material).second) {
+        m.materials[prim.material] = material;
+        it->second = prim.material;
+      } else {
+        m.materials.push_back(material);
+        it->second = int(m.materials.size()) - 1;
+      }
+    }
+    prim.material = it->second;
+  }
+  if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), "MOZ_lightmap") == m.extensionsUsed.end())
+    m.extensionsUsed.push_back("MOZ_lightmap");
+
+  files->push_back({options.path, encodeExrHalfRgb(width, height, image.rgb)});
+  files->push_back({out.preview, encodePng(width, height, preview)});
+  return out;
 }
 
 void appendU32(std::string& out, uint32_t v) {
@@ -368,32 +661,35 @@ std::string serialize(tinygltf::Model& m, bool binary, bool pretty) {
 
 }  // namespace
 
-void writeFileAtomically(const std::string& path, const std::string& bytes) {
+void writeFileAtomically(const std::string& path, const std::string& bytes) { writeFilesAtomically({{path, bytes}}); }
+
+void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files) {
   namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::vector<fs::path> temps;
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw Error(ExitCode::kCannotWrite, path + ": cannot write: directory " + dir.string() + " does not exist");
-  std::string tempName = ".";
-  tempName += target.filename().string();
-  tempName += ".radbake-";
-  tempName += std::to_string(::getpid());
-  tempName += ".tmp";
-  const fs::path temp = dir / tempName;
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(ExitCode::kCannotWrite, path + ": cannot write: " + std::strerror(errno));
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    out.close();
-    if (!out) {
-      fs::remove(temp, ec);
-      throw Error(ExitCode::kCannotWrite, path + ": cannot write: " + std::strerror(errno));
-    }
+  auto fail = [&](const std::string& path, const std::string& why, size_t renamed) {
+    for (size_t i = renamed; i < temps.size(); ++i) fs::remove(temps[i], ec);
+    for (size_t i = 0; i < renamed; ++i) fs::remove(files[i].first, ec);  // all or nothing
+    throw Error(ExitCode::kCannotWrite, path + ": cannot write: " + why);
+  };
+  for (const auto& [path, bytes] : files) {
+    const fs::path target(path);
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    if (!fs::is_directory(dir, ec)) fail(path, "directory " + dir.string() + " does not exist", 0);
+    std::string tempName = ".";
+    tempName += target.filename().string();
+    tempName += ".radbake-";
+    tempName += std::to_string(::getpid());
+    tempName += ".tmp";
+    temps.push_back(dir / tempName);
+    std::ofstream out(temps.back(), std::ios::binary | std::ios::trunc);
+    if (out) out.write(bytes.data(), std::streamsize(bytes.size()));
+    if (out) out.close();
+    if (!out) fail(path, std::strerror(errno), 0);
   }
-  fs::rename(temp, target, ec);
-  if (ec) {
-    fs::remove(temp, ec);
-    throw Error(ExitCode::kCannotWrite, path + ": cannot write: " + ec.message());
+  for (size_t i = 0; i < files.size(); ++i) {
+    fs::rename(temps[i], files[i].first, ec);
+    if (ec) fail(files[i].first, ec.message(), i);
   }
 }
 
@@ -435,90 +731,77 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
     }
   }
 
-  // The radiance each output vertex carries, per baked primitive and per generated surface.
-  std::vector<std::vector<Vec3>> radiance(scene.primitives.size() + mesh.generated.size());
-  for (size_t p = 0; p < scene.primitives.size(); ++p) {
-    const PrimitivePatches& patches = mesh.primitives[p];
-    radiance[p].resize(patches.patchVertex.size());
-    for (size_t v = 0; v < radiance[p].size(); ++v)
-      radiance[p][v] = !patches.patch.empty() && !patchRadiance.empty() ? patchRadiance[patches.patch[v]]
-                       : patches.patchVertex[v] == UINT32_MAX ? scene.materials[scene.primitives[p].material].emission
-                                                              : vertexRadiance[patches.patchVertex[v]];
-  }
-  for (size_t g = 0; g < mesh.generated.size(); ++g)
-    for (uint32_t v : mesh.generated[g].patchVertex) radiance[scene.primitives.size() + g].push_back(vertexRadiance[v]);
-
-  // Display shaping: one exposure for the whole scene, set from the surfaces that only reflect.
-  auto materialOf = [&](size_t k) -> const Material& {
-    return scene.materials[k < scene.primitives.size() ? scene.primitives[k].material
-                                                       : mesh.generated[k - scene.primitives.size()].material];
-  };
-  std::vector<Vec3> reflected, all;
-  for (size_t k = 0; k < radiance.size(); ++k) {
-    const Material& material = materialOf(k);
-    const bool emits = material.emission.x > 0 || material.emission.y > 0 || material.emission.z > 0;
-    if (!emits) reflected.insert(reflected.end(), radiance[k].begin(), radiance[k].end());
-    all.insert(all.end(), radiance[k].begin(), radiance[k].end());
-  }
-  summary.display = resolveDisplay(options.display, reflected);
-  const std::vector<Vec3> codes = toDisplay(summary.display, all);
-
-  // COLOR_0 = the display value back in glTF's linear color, divided by what the unlit material
-  // multiplies it with (its base color texture), clamped to glTF's [0,1].
-  size_t next = 0;
-  auto colorsOf = [&](size_t k, const std::vector<Vec3>& texture) {
-    std::vector<Vec3> colors(radiance[k].size());
-    for (size_t v = 0; v < colors.size(); ++v, ++next) {
-      const Vec3& code = codes[next];
-      const Vec3 t = texture.empty() ? Vec3{1, 1, 1} : texture[v];
-      auto channel = [&](double c, double tex) {
-        const double wanted = srgbDecode(c);
-        if (wanted <= 0) return 0.0;
-        if (wanted > tex + 1e-6) ++summary.clampedColors;
-        return tex > 0 ? std::min(1.0, wanted / tex) : 1.0;
-      };
-      colors[v] = {channel(code.x, t.x), channel(code.y, t.y), channel(code.z, t.z)};
-    }
-    return colors;
-  };
-
-  std::set<int> unlit;
-  int defaultUnlit = -1;  // primitives without a material get one unlit white material
+  // Every baked primitive in the output, with the radiance of its output vertices.
+  const bool lightmap = !options.lightmap.path.empty();
+  std::vector<BakedPrimitive> baked;
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
     const Primitive& prim = scene.primitives[p];
     const PrimitivePatches& patches = mesh.primitives[p];
-    tinygltf::Primitive& target = m.meshes[meshOfNode[prim.node]].primitives[prim.primitive];
+    BakedPrimitive b;
+    b.mesh = meshOfNode[prim.node];
+    b.primitive = prim.primitive;
+    b.material = prim.material;
+    tinygltf::Primitive& target = m.meshes[b.mesh].primitives[b.primitive];
     if (!patches.keepsSourceVertices) target = tessellatedPrimitive(m, target, prim, patches);
-    addBakeAttributes(m, target, radiance[p], colorsOf(p, textureAtVertices(scene, prim, patches)));
-    if (target.material >= 0) {
-      unlit.insert(target.material);
-    } else {
-      if (defaultUnlit < 0) {
-        tinygltf::Material material;
-        material.name = "radbake default (unlit)";
-        makeUnlit(material);
-        m.materials.push_back(material);
-        defaultUnlit = int(m.materials.size()) - 1;
+    const Material& material = scene.materials[prim.material];
+    const bool constant = !patches.patch.empty() && !patchRadiance.empty();
+    for (size_t v = 0; v < patches.patchVertex.size(); ++v) {
+      const uint32_t pv = patches.patchVertex[v];
+      if (constant) {
+        const Patch& patch = mesh.patches[patches.patch[v]];
+        b.radiance.push_back(patchRadiance[patches.patch[v]]);
+        if (lightmap) b.light.push_back(lightOf(b.radiance.back(), patch.emission, patch.reflectance));
+      } else if (pv == UINT32_MAX) {  // a vertex no patch uses (a dropped degenerate face)
+        b.radiance.push_back(material.emission);
+        if (lightmap) b.light.push_back({0, 0, 0});
+      } else {
+        b.radiance.push_back(vertexRadiance[pv]);
+        if (lightmap) b.light.push_back(lightOf(vertexRadiance[pv], mesh.vertexEmission[pv], mesh.vertexReflectance[pv]));
       }
-      target.material = defaultUnlit;
     }
-    ++summary.bakedPrimitives;
-    summary.writtenVertices += radiance[p].size();
+    if (lightmap) {
+      b.positions = outputPositions(prim, patches);
+      b.triangles = patches.keepsSourceVertices ? sourceTriangles(prim) : patches.triangles;
+    } else {
+      b.texture = textureAtVertices(scene, prim, patches);
+    }
+    baked.push_back(std::move(b));
   }
-  for (int material : unlit) makeUnlit(m.materials[material]);
-  summary.unlitMaterials = int(unlit.size()) + (defaultUnlit >= 0);
+  for (const GeneratedSurface& surface : mesh.generated) {
+    BakedPrimitive b;
+    b.mesh = addGeneratedMesh(m, scene, mesh, surface);
+    b.material = surface.material;
+    for (uint32_t v : surface.patchVertex) {
+      b.radiance.push_back(vertexRadiance[v]);
+      b.light.push_back(lightOf(vertexRadiance[v], mesh.vertexEmission[v], mesh.vertexReflectance[v]));
+      b.positions.push_back(mesh.positions[v]);
+    }
+    b.triangles = surface.triangles;
+    baked.push_back(std::move(b));
+  }
 
-  for (size_t g = 0; g < mesh.generated.size(); ++g) {
-    const size_t k = scene.primitives.size() + g;
-    addGeneratedSurface(m, scene, mesh, mesh.generated[g], radiance[k], colorsOf(k, {}));
-    ++summary.bakedPrimitives;
-    ++summary.unlitMaterials;
-    summary.writtenVertices += radiance[k].size();
+  // Display shaping: one exposure for the whole scene, set from the surfaces that only reflect.
+  std::vector<Vec3> reflected, all;
+  for (const BakedPrimitive& b : baked) {
+    const Vec3& emission = scene.materials[b.material].emission;
+    if (emission.x <= 0 && emission.y <= 0 && emission.z <= 0)
+      reflected.insert(reflected.end(), b.radiance.begin(), b.radiance.end());
+    if (!lightmap) all.insert(all.end(), b.radiance.begin(), b.radiance.end());
   }
-  if (summary.unlitMaterials > 0 &&
-      std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), "KHR_materials_unlit") == m.extensionsUsed.end())
-    m.extensionsUsed.push_back("KHR_materials_unlit");
-  writeFileAtomically(path, serialize(m, ext == ".glb", options.pretty));
+  summary.display = resolveDisplay(options.display, reflected);
+
+  std::vector<std::pair<std::string, std::string>> files;
+  if (lightmap) {
+    if (lowerExtension(options.lightmap.path) != ".exr")
+      throw Error(ExitCode::kUsage, "radbake: --lightmap " + options.lightmap.path + " must end in .exr");
+    summary.lightmap = addLightmap(m, baked, options.lightmap, summary.display, &files);
+  } else {
+    addVertexColors(m, baked, toDisplay(summary.display, all), &summary);
+  }
+  for (const BakedPrimitive& b : baked) summary.writtenVertices += b.radiance.size();
+  summary.bakedPrimitives = int(baked.size());
+  files.insert(files.begin(), {path, serialize(m, ext == ".glb", options.pretty)});
+  writeFilesAtomically(files);
   return summary;
 }
 

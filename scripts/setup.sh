@@ -8,6 +8,7 @@ packages=(cmake ninja-build g++ pkg-config
   libtinygltf-dev libosd-dev libeigen3-dev libopenexr-dev libimath-dev libopencolorio-dev
   libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libstb-dev libdraco-dev
   blender python3-numpy)
+packages+=(chromium)  # the browser render test (tests/browser): three.js in headless Chromium
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
 
@@ -24,7 +25,8 @@ if ((${#missing[@]})); then
 fi
 
 # JavaScript test tools, pinned by tools/package-lock.json.
-if [ ! -d tools/node_modules/gltf-validator ]; then
-  echo "setup: installing the glTF validator (npm)"
+if [ ! -d tools/node_modules/gltf-validator ] || [ ! -d tools/node_modules/three ] ||
+   [ ! -d tools/node_modules/playwright-core ]; then
+  echo "setup: installing the JavaScript test tools (npm: gltf-validator, three, playwright-core)"
   (cd tools && npm ci --no-audit --no-fund --loglevel=error)
 fi

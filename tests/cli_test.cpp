@@ -2,6 +2,7 @@
 // asset (checked against the input document and the Khronos validator), every broken asset (exit
 // code, one-line message naming the file and element, no output), and `radbake info` against the
 // asset index.
+#include <ImfRgbaFile.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
@@ -884,15 +885,6 @@ TEST(Cli, UsageErrorsAreExit1) {
   EXPECT_EQ(radbake({"frobnicate"}).code, 1);
 }
 
-TEST(Cli, UnbuiltOptionsAreExit3AndSaySo) {
-  const std::string in = (kShared / "scenes" / "furnace_cube.gltf").string();
-  const std::string out = (tempDir() / "unbuilt.glb").string();
-  const RunResult r = radbake({"bake", in, "-o", out, "--lightmap", "x.exr"});
-  EXPECT_EQ(r.code, 3);
-  EXPECT_NE(r.err.find("not built yet"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(out));
-}
-
 // The sRGB encoding written out here from IEC 61966-2-1, independent of radbake and OCIO.
 double srgbEncodeReference(double x) { return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055; }
 double srgbDecodeReference(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
@@ -1186,6 +1178,190 @@ TEST(Assets, EveryValidAssetBakes) {
   if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed";
   std::string log;
   EXPECT_EQ(runValidator(baked, &log), 0) << log;
+}
+
+
+// ---- Lightmaps ----
+
+struct ExrImage {
+  int width = 0, height = 0;
+  std::vector<float> rgb;
+  radbake::Vec3 at(int x, int y) const {
+    const size_t i = 3 * (size_t(y) * width + x);
+    return {rgb[i], rgb[i + 1], rgb[i + 2]};
+  }
+};
+
+ExrImage readExr(const fs::path& path) {  // OpenEXR's own reader, not radbake's writer
+  Imf::RgbaInputFile file(path.c_str());
+  const Imath::Box2i window = file.dataWindow();
+  ExrImage image;
+  image.width = window.max.x - window.min.x + 1;
+  image.height = window.max.y - window.min.y + 1;
+  std::vector<Imf::Rgba> pixels(size_t(image.width) * image.height);
+  file.setFrameBuffer(pixels.data() - window.min.x - window.min.y * image.width, 1, image.width);
+  file.readPixels(window.min.y, window.max.y);
+  for (const auto& p : pixels) image.rgb.insert(image.rgb.end(), {float(p.r), float(p.g), float(p.b)});
+  return image;
+}
+
+// The light that multiplies albedo, recomputed from the file: E = π (L − L⁰) / ρ with ρ the base
+// color factor (the lightmapped materials keep theirs) and L⁰ the emissive factor × strength.
+radbake::Vec3 lightFromFile(const tinygltf::Material& material, const float* L) {
+  const auto& rho = material.pbrMetallicRoughness.baseColorFactor;
+  double strength = 1;
+  if (auto it = material.extensions.find("KHR_materials_emissive_strength"); it != material.extensions.end())
+    strength = it->second.Get("emissiveStrength").GetNumberAsDouble();
+  double E[3];
+  for (int c = 0; c < 3; ++c) {
+    const double L0 = material.emissiveFactor.size() == 3 ? material.emissiveFactor[c] * strength : 0;
+    E[c] = rho[c] > 0 ? std::max(0.0, kPi * (L[c] - L0) / rho[c]) : 0;
+  }
+  return {E[0], E[1], E[2]};
+}
+
+bool nearHalf(double value, double expected) {  // half float: 11 significant bits
+  return std::abs(value - expected) <= 1e-3 * std::abs(expected) + 1e-6;
+}
+
+TEST(LightmapOutput, ExrHoldsEveryVertexsLightAndEveryCoveredTexel) {
+  const fs::path dir = tempDir();
+  const fs::path out = dir / "cornell_lm.glb", exr = dir / "cornell_lm.exr", report = dir / "cornell_lm.json";
+  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+                               "--subdivide", "4", "--lightmap", exr.string(), "--lightmap-size", "512", "--report",
+                               report.string(), "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "cornell_lm.preview.png"));
+  const ExrImage image = readExr(exr);
+  const json rep = json::parse(std::ifstream(report));
+  EXPECT_EQ(rep["lightmap"]["width"], image.width);
+  EXPECT_EQ(rep["lightmap"]["height"], image.height);
+  EXPECT_LE(std::max(image.width, image.height), 512);
+  EXPECT_GE(rep["lightmap"]["charts"], 16);  // 5 walls, the light, 2 blocks × 5 faces
+
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  size_t vertices = 0, texels = 0, vertexMisses = 0, texelMisses = 0;
+  for (const auto& mesh : m.meshes)
+    for (const auto& prim : mesh.primitives) {
+      const auto& material = m.materials.at(prim.material);
+      ASSERT_TRUE(material.extensions.count("MOZ_lightmap"));
+      EXPECT_EQ(material.extensions.at("MOZ_lightmap").Get("texCoord").GetNumberAsInt(), 1);
+      EXPECT_FALSE(prim.attributes.count("COLOR_0"));
+      const auto L = floatAttribute(m, prim, "_RADIANCE"), uv = floatAttribute(m, prim, "TEXCOORD_1");
+      const size_t n = L.size() / 3;
+      ASSERT_EQ(uv.size(), 2 * n);
+      std::vector<radbake::Vec3> E(n);
+      std::vector<double> x(n), y(n);
+      for (size_t v = 0; v < n; ++v, ++vertices) {
+        E[v] = lightFromFile(material, &L[3 * v]);
+        x[v] = uv[2 * v] * image.width - 0.5;  // texel coordinates: centers at integers
+        y[v] = uv[2 * v + 1] * image.height - 0.5;
+        // A generated atlas puts vertices on texel centers: the texel there is the vertex's light.
+        EXPECT_NEAR(x[v], std::round(x[v]), 1e-3);
+        EXPECT_NEAR(y[v], std::round(y[v]), 1e-3);
+        const radbake::Vec3 t = image.at(int(std::lround(x[v])), int(std::lround(y[v])));
+        if (!nearHalf(t.x, E[v].x) || !nearHalf(t.y, E[v].y) || !nearHalf(t.z, E[v].z)) ++vertexMisses;
+      }
+      // Every texel whose center lies inside a triangle holds the interpolation of that triangle's
+      // vertices: nothing covered is left unwritten, and no other chart's light is there.
+      const std::string idx = accessorBytes(m, prim.indices);
+      std::vector<uint32_t> indices(idx.size() / 4);
+      std::memcpy(indices.data(), idx.data(), idx.size());
+      for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+        const uint32_t a = indices[t], b = indices[t + 1], c = indices[t + 2];
+        const double area = (x[b] - x[a]) * (y[c] - y[a]) - (x[c] - x[a]) * (y[b] - y[a]);
+        if (std::abs(area) < 1e-9) continue;
+        for (int ty = int(std::floor(std::min({y[a], y[b], y[c]}))); ty <= int(std::ceil(std::max({y[a], y[b], y[c]}))); ++ty)
+          for (int tx = int(std::floor(std::min({x[a], x[b], x[c]}))); tx <= int(std::ceil(std::max({x[a], x[b], x[c]}))); ++tx) {
+            const double wb = ((tx - x[a]) * (y[c] - y[a]) - (x[c] - x[a]) * (ty - y[a])) / area;
+            const double wc = ((x[b] - x[a]) * (ty - y[a]) - (tx - x[a]) * (y[b] - y[a])) / area;
+            const double wa = 1 - wb - wc;
+            if (wa < 1e-6 || wb < 1e-6 || wc < 1e-6) continue;  // strictly inside
+            const radbake::Vec3 expected = E[a] * wa + E[b] * wb + E[c] * wc;
+            const radbake::Vec3 got = image.at(tx, ty);
+            ++texels;
+            if (!nearHalf(got.x, expected.x) || !nearHalf(got.y, expected.y) || !nearHalf(got.z, expected.z))
+              ++texelMisses;
+          }
+      }
+    }
+  EXPECT_GT(vertices, 400u);
+  EXPECT_GT(texels, 100000u);
+  EXPECT_EQ(vertexMisses, 0u) << "of " << vertices;
+  EXPECT_EQ(texelMisses, 0u) << "of " << texels;
+  EXPECT_EQ(m.extensionsUsed, (std::vector<std::string>{"KHR_materials_emissive_strength", "MOZ_lightmap"}));
+}
+
+// A 2×2 plate (ρ 0.5) under a 3 lx directional light straight down: E = 3 everywhere, whatever
+// the albedo. uv1: the plate's own TEXCOORD_1, four corners (u, v) in the order of its vertices.
+std::string lightmappedPlate(const std::array<float, 8>& uv1) {
+  std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, -1};
+  data.insert(data.end(), uv1.begin(), uv1.end());
+  data.resize(data.size() + 3, 0);
+  const uint16_t indices[6] = {0, 1, 2, 0, 2, 3};
+  std::memcpy(data.data() + 20, indices, sizeof indices);
+  const double h = std::sqrt(0.5);
+  return R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
+    "extensions":{"KHR_lights_punctual":{"lights":[{"type":"directional","intensity":3}]}},
+    "scene":0,"scenes":[{"nodes":[0,1]}],
+    "nodes":[{"mesh":0},{"rotation":[-)" + std::to_string(h) + ",0,0," + std::to_string(h) + R"(],
+              "extensions":{"KHR_lights_punctual":{"light":0}}}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_1":1},"indices":2,"material":0}]}],
+    "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0}}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
+                 {"bufferView":0,"byteOffset":48,"componentType":5126,"count":4,"type":"VEC2"},
+                 {"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}],
+    "bufferViews":[{"buffer":0,"byteLength":80},{"buffer":0,"byteOffset":80,"byteLength":12}],
+    "buffers":[{"byteLength":92,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+}
+
+TEST(LightmapOutput, UsesTheAssetsOwnTexcoord1WhenItCanAndSaysWhyNot) {
+  const fs::path dir = tempDir();
+  struct Case {
+    const char* name;
+    std::array<float, 8> uv1;
+    bool usable;
+  };
+  for (const Case& c : {Case{"own", {0.1f, 0.1f, 0.9f, 0.1f, 0.9f, 0.9f, 0.1f, 0.9f}, true},
+                        // The second triangle folded onto the first: the UVs overlap.
+                        Case{"folded", {0.1f, 0.1f, 0.9f, 0.1f, 0.9f, 0.9f, 0.9f, 0.1f}, false}}) {
+    SCOPED_TRACE(c.name);
+    const fs::path in = dir / (std::string(c.name) + ".gltf"), out = dir / (std::string(c.name) + ".glb"),
+                   exr = dir / (std::string(c.name) + ".exr"), report = dir / (std::string(c.name) + ".json");
+    std::ofstream(in) << lightmappedPlate(c.uv1);
+    const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--subdivide", "3", "--lightmap",
+                                 exr.string(), "--lightmap-size", "64", "--report", report.string(), "-q"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    const json rep = json::parse(std::ifstream(report));
+    EXPECT_EQ(rep["lightmap"]["assetUVs"], c.usable);
+    EXPECT_EQ(rep["lightmap"]["atlasReason"].get<std::string>().empty(), c.usable) << rep["lightmap"];
+    const ExrImage image = readExr(exr);
+    if (c.usable) {
+      EXPECT_EQ(image.width, 64);
+      EXPECT_EQ(image.height, 64);
+    }
+    // E = 3 in every texel (the dilated gutters copy their neighbours): closed form, any layout.
+    for (size_t i = 0; i < image.rgb.size(); ++i) ASSERT_TRUE(nearHalf(image.rgb[i], 3.0)) << i << ": " << image.rgb[i];
+  }
+}
+
+TEST(LightmapOutput, AFailedWriteLeavesNothingAndBadNamesAreUsageErrors) {
+  const fs::path dir = tempDir();
+  const std::string in = (kShared / "scenes" / "cornell_box.gltf").string();
+  const fs::path out = dir / "nowhere.glb";
+  RunResult r = radbake({"bake", in, "-o", out.string(), "--lightmap", (dir / "missing" / "lm.exr").string()});
+  EXPECT_EQ(r.code, 4);
+  EXPECT_NE(r.err.find("lm.exr: cannot write: directory"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));  // the glTF is not left without its lightmap
+  r = radbake({"bake", in, "-o", out.string(), "--lightmap", (dir / "lm.png").string()});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("--lightmap " + (dir / "lm.png").string() + " must end in .exr"), std::string::npos) << r.err;
+  r = radbake({"bake", in, "-o", out.string(), "--lightmap", (dir / "lm.exr").string(), "--texel-size", "0.001",
+               "--lightmap-size", "64"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("64x64 allowed"), std::string::npos) << r.err;
+  for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
 }
 
 }  // namespace

@@ -71,12 +71,6 @@ class Progress {
   bool barOpen_ = false;
 };
 
-// Options whose stage is not built yet: refuse with exit 3 rather than ignore them.
-std::string unbuiltOption(const Options& o) {
-  if (!o.lightmap.empty()) return "--lightmap (lightmap output is not built yet)";
-  return "";
-}
-
 std::string lowerExtension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
@@ -199,11 +193,18 @@ void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
   for (const auto& w : scene.warnings) out << "  warning: " << w << "\n";
 }
 
+nlohmann::json lightmapReport(const LightmapSummary& l) {
+  if (l.exr.empty()) return nullptr;
+  return {{"exr", l.exr}, {"preview", l.preview}, {"width", l.width}, {"height", l.height}, {"charts", l.charts},
+          {"texelSize", l.texelSize}, {"fill", l.fill}, {"texCoord", l.texCoord}, {"assetUVs", l.assetUVs},
+          {"atlasReason", l.atlasReason},
+          {"quantity", "irradiance E = pi (L - L0) / albedo; a viewer shows albedo * E / pi"},
+          {"pngIntensity", l.intensity}};
+}
+
 int bake(const Options& options, std::ostream& out, std::ostream& err) {
   using Clock = std::chrono::steady_clock;
   auto seconds = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
-  if (std::string unbuilt = unbuiltOption(options); !unbuilt.empty())
-    throw Error(ExitCode::kUnsupported, "radbake: " + unbuilt);
   const std::string outExt = lowerExtension(options.output);
   if (outExt != ".glb" && outExt != ".gltf")
     throw Error(ExitCode::kUsage, "radbake: output " + options.output + " must end in .glb or .gltf");
@@ -214,6 +215,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   const auto probes = options.probe.empty() ? std::vector<std::pair<Vec3, Vec3>>{} : readProbes(options.probe);
   ExportOptions exportOptions;
   exportOptions.display = {options.ocioConfig, options.display, options.view, options.exposure};
+  exportOptions.lightmap = {options.lightmap, options.lightmapSize, options.texelSize};
+  if (!options.lightmap.empty() && lowerExtension(options.lightmap) != ".exr")
+    throw Error(ExitCode::kUsage, "radbake: --lightmap " + options.lightmap + " must end in .exr");
   if (exportOptions.display.config.empty())
     if (const char* env = std::getenv("OCIO"); env && *env) exportOptions.display.config = env;
   resolveDisplay(exportOptions.display);  // a bad config or view fails now, not after the solve
@@ -277,17 +281,25 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                      {"automaticExposure", summary.display.automatic},
                      {"keyLuminance", summary.display.keyLuminance},
                      {"unlitMaterials", summary.unlitMaterials}, {"clampedColorComponents", summary.clampedColors}}},
+        {"lightmap", lightmapReport(summary.lightmap)},
         {"timings", {{"import", seconds(t0, t1)}, {"tessellate", seconds(t1, t2)}, {"solve", seconds(t2, t3)},
                      {"export", seconds(t3, t4)}, {"total", seconds(t0, t4)}}},
         {"warnings", scene.warnings}};
     writeFileAtomically(options.report, report.dump(2) + "\n");
   }
-  if (!options.quiet)
+  if (!options.quiet) {
     out << "radbake: wrote " << options.output << " (" << mesh.patches.size() << " patches, "
-        << mesh.positions.size() << " vertices, " << std::fixed << std::setprecision(2) << seconds(t0, t4)
-        << " s); COLOR_0: " << summary.display.options.view << ", exposure " << std::showpos
-        << summary.display.exposure << std::noshowpos << " EV" << (summary.display.automatic ? " (automatic)" : "")
-        << "\n";
+        << mesh.positions.size() << " vertices, " << std::fixed << std::setprecision(2) << seconds(t0, t4) << " s)";
+    const LightmapSummary& l = summary.lightmap;
+    if (l.exr.empty())
+      out << "; COLOR_0: " << summary.display.options.view;
+    else
+      out << "; lightmap " << l.exr << " (" << l.width << "x" << l.height << ", " << l.charts << " charts"
+          << (l.assetUVs ? ", the asset's TEXCOORD_1" : "") << ") and preview " << l.preview << ": "
+          << summary.display.options.view;
+    out << ", exposure " << std::showpos << summary.display.exposure << std::noshowpos << " EV"
+        << (summary.display.automatic ? " (automatic)" : "") << "\n";
+  }
   return 0;
 }
 
@@ -318,7 +330,12 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
       ->check(CLI::IsMember({"catmull-clark", "loop"}));
   bakeCmd->add_option("--scene", o.scene, "the glTF scene to bake (default: the file's default scene)")
       ->check(CLI::NonNegativeNumber);
-  bakeCmd->add_option("--lightmap", o.lightmap, "also write an HDR lightmap atlas (.exr)");
+  bakeCmd->add_option("--lightmap", o.lightmap,
+                      "write the light as an HDR lightmap atlas (.exr, with a .preview.png beside it) instead of COLOR_0");
+  bakeCmd->add_option("--lightmap-size", o.lightmapSize, "largest lightmap width and height in texels (default 1024)")
+      ->check(CLI::Range(16, 16384));
+  bakeCmd->add_option("--texel-size", o.texelSize, "lightmap texel size in scene units (default: the finest that fits)")
+      ->check(CLI::PositiveNumber);
   bakeCmd->add_option("--exposure", o.exposure,
                       "exposure in EV for COLOR_0 and previews (default: automatic, the 90th percentile of lit surfaces at 0.8)");
   bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0 (built in: \"ACES 1.0 SDR-video\" (default), \"Standard\")");

@@ -23,6 +23,8 @@ struct Options {
   std::string subdivisionSurfaces;  // "", "catmull-clark" or "loop"
   int scene = -1;                   // --scene N
   std::string lightmap;
+  int lightmapSize = 1024;
+  double texelSize = 0;
   std::optional<double> exposure;
   std::string view, display, ocioConfig;
   std::string probe, probeOut;
