@@ -52,103 +52,15 @@ FLOAT_TOL = 1e-6
 RANGE_SLACK = 1e-6
 POS_EPS_REL = 1e-5
 
-COMPONENT = {5120: "<i1", 5121: "<u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}
-NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
-
-
 class Fail(Exception):
     pass
 
 
 # --------------------------------------------------------------------------------------------
-# glTF reading (independent of the importer)
+# glTF reading (independent of Blender's importer): the add-on's own reader, numpy only.
 
-def load_gltf(path):
-    with open(path, "rb") as f:
-        data = f.read()
-    if data[:4] == b"glTF":
-        _magic, _version, length = struct.unpack_from("<III", data, 0)
-        off, doc, bin_chunk = 12, None, None
-        while off + 8 <= min(length, len(data)):
-            clen, ctype = struct.unpack_from("<II", data, off)
-            chunk = data[off + 8:off + 8 + clen]
-            if ctype == 0x4E4F534A:  # JSON
-                doc = json.loads(chunk.decode("utf-8"))
-            elif ctype == 0x004E4942 and bin_chunk is None:  # BIN
-                bin_chunk = chunk
-            off += 8 + clen
-        if doc is None:
-            raise Fail("%s: GLB without a JSON chunk" % path)
-    else:
-        doc, bin_chunk = json.loads(data.decode("utf-8")), None
-    buffers = []
-    for i, b in enumerate(doc.get("buffers", [])):
-        uri = b.get("uri")
-        if uri is None:
-            if bin_chunk is None:
-                raise Fail("%s: buffer %d has no uri and there is no BIN chunk" % (path, i))
-            buffers.append(bin_chunk)
-        elif uri.startswith("data:"):
-            buffers.append(base64.b64decode(uri.split(",", 1)[1]))
-        else:
-            from urllib.parse import unquote
-            with open(os.path.join(os.path.dirname(path), unquote(uri)), "rb") as f:
-                buffers.append(f.read())
-    return doc, buffers
-
-
-def _view_array(doc, buffers, view_index, byte_offset, dtype, ncomp, count):
-    bv = doc["bufferViews"][view_index]
-    buf = buffers[bv["buffer"]]
-    itemsize = np.dtype(dtype).itemsize
-    stride = bv.get("byteStride") or itemsize * ncomp
-    start = bv.get("byteOffset", 0) + byte_offset
-    if count and start + stride * (count - 1) + itemsize * ncomp > len(buf):
-        raise Fail("accessor reads past the end of buffer %d" % bv["buffer"])
-    return np.ndarray(shape=(count, ncomp), dtype=dtype, buffer=buf, offset=start,
-                      strides=(stride, itemsize)).copy()
-
-
-def read_accessor(doc, buffers, index):
-    """Accessor values as float64 (normalized integers mapped to [0, 1] / [-1, 1]), shape (count, n)."""
-    acc = doc["accessors"][index]
-    dtype, ncomp, count = COMPONENT[acc["componentType"]], NCOMP[acc["type"]], acc["count"]
-    if "bufferView" in acc:
-        a = _view_array(doc, buffers, acc["bufferView"], acc.get("byteOffset", 0), dtype, ncomp, count)
-    else:
-        a = np.zeros((count, ncomp), dtype=dtype)
-    sparse = acc.get("sparse")
-    if sparse:
-        idx = sparse["indices"]
-        ii = _view_array(doc, buffers, idx["bufferView"], idx.get("byteOffset", 0),
-                         COMPONENT[idx["componentType"]], 1, sparse["count"]).reshape(-1)
-        vals = sparse["values"]
-        a[ii] = _view_array(doc, buffers, vals["bufferView"], vals.get("byteOffset", 0), dtype, ncomp,
-                            sparse["count"])
-    out = a.astype(np.float64)
-    if acc.get("normalized"):
-        info = np.iinfo(np.dtype(dtype))
-        out = out / info.max
-        if info.min < 0:
-            out = np.maximum(out, -1.0)
-    return out
-
-
-def quat_matrix(q):
-    x, y, z, w = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
-def node_matrix(node):
-    if "matrix" in node:
-        return np.array(node["matrix"], dtype=np.float64).reshape(4, 4).T  # column-major
-    m = np.eye(4)
-    m[:3, :3] = quat_matrix(node.get("rotation", [0, 0, 0, 1])) @ np.diag(node.get("scale", [1, 1, 1]))
-    m[:3, 3] = node.get("translation", [0, 0, 0])
-    return m
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "plugin", "blender"))
+from radbake.gltf_file import GltfError, load_gltf, node_matrix, read_accessor  # noqa: E402
 
 
 def triangles(mode, n_idx):
@@ -460,7 +372,7 @@ def main():
         sys.exit(2)
     try:
         ok = run(os.path.abspath(argv[0]))
-    except Fail as e:
+    except (Fail, GltfError) as e:
         print("blender_import_colors: FAIL: %s: %s" % (os.path.basename(argv[0]), e))
         ok = False
     sys.stdout.flush()
