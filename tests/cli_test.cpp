@@ -792,26 +792,33 @@ std::string base64Bytes(const std::string& bytes) {
 // the constant method at --subdivide 2; returns the red radiance of the left and right halves.
 // Bilinear filtering with REPEAT makes the texture a triangle wave between the texel centres:
 // its mean over the left half (u in [0, ½]) is ¾, over the right half ¼.
-std::vector<double> bakeTexturedPlate(const std::string& materialJson) {
-  const std::string png = tinyPng(2, 1, {255, 255, 255, 0, 0, 0});
-  std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, -1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0};
+// A 2×2 plate under a 3 lx directional light straight down: its material, its texture
+// coordinates (`semantic`, four corners (u, v) in vertex order) and, optionally, texture 0's image.
+std::string plateGltf(const std::string& materialJson, const std::string& semantic = "TEXCOORD_0",
+                      const std::array<float, 8>& uv = {0, 1, 1, 1, 1, 0, 0, 0}, const std::string& png = "") {
+  std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, -1};
+  data.insert(data.end(), uv.begin(), uv.end());
+  data.resize(data.size() + 4, 0);
   const uint16_t indices[6] = {0, 1, 2, 0, 2, 3};
   std::memcpy(data.data() + 20, indices, sizeof indices);
   const double h = std::sqrt(0.5);
-  const std::string gltf = R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
+  return R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
     "extensions":{"KHR_lights_punctual":{"lights":[{"type":"directional","intensity":3}]}},
     "scene":0,"scenes":[{"nodes":[0,1]}],
     "nodes":[{"mesh":0},{"rotation":[-)" + std::to_string(h) + ",0,0," + std::to_string(h) + R"(],
               "extensions":{"KHR_lights_punctual":{"light":0}}}],
-    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
-    "materials":[)" + materialJson + R"(],
-    "textures":[{"source":0}],
-    "images":[{"uri":"data:image/png;base64,)" + base64Bytes(png) + R"("}],
-    "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0,")" + semantic + R"(":1},"indices":2,"material":0}]}],
+    "materials":[)" + materialJson + "]," +
+         (png.empty() ? "" : R"("textures":[{"source":0}],"images":[{"uri":"data:image/png;base64,)" + base64Bytes(png) + R"("}],)") +
+         R"("accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
                  {"bufferView":0,"byteOffset":48,"componentType":5126,"count":4,"type":"VEC2"},
                  {"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}],
     "bufferViews":[{"buffer":0,"byteLength":80},{"buffer":0,"byteOffset":80,"byteLength":12}],
     "buffers":[{"byteLength":96,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+}
+
+std::vector<double> bakeTexturedPlate(const std::string& materialJson) {
+  const std::string gltf = plateGltf(materialJson, "TEXCOORD_0", {0, 1, 1, 1, 1, 0, 0, 0}, tinyPng(2, 1, {255, 255, 255, 0, 0, 0}));
   const fs::path dir = tempDir(), in = dir / "textured.gltf", probes = dir / "textured.csv", values = dir / "textured_out.csv";
   std::ofstream(in) << gltf;
   std::ofstream(probes) << "x,y,z,nx,ny,nz\n-0.5,0,0.3,0,1,0\n0.5,0,-0.3,0,1,0\n";
@@ -1080,25 +1087,8 @@ TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileAtTheTarget) {
 TEST(Display, TexturedColorsTimesTheTextureGiveTheDisplayValue) {
   // A uniform mid-grey texture (sRGB 128 → linear 0.2158) lit by 3 lx from straight above:
   // L = ρ·3/π. The unlit viewer shows texture × COLOR_0, so COLOR_0 = L/ρ = 3/π.
-  const std::string png = tinyPng(1, 1, {128, 128, 128});
-  std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, -1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0};
-  const uint16_t indices[6] = {0, 1, 2, 0, 2, 3};
-  std::memcpy(data.data() + 20, indices, sizeof indices);
-  const double h = std::sqrt(0.5);
-  const std::string gltf = R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
-    "extensions":{"KHR_lights_punctual":{"lights":[{"type":"directional","intensity":3}]}},
-    "scene":0,"scenes":[{"nodes":[0,1]}],
-    "nodes":[{"mesh":0},{"rotation":[-)" + std::to_string(h) + ",0,0," + std::to_string(h) + R"(],
-              "extensions":{"KHR_lights_punctual":{"light":0}}}],
-    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
-    "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}}],
-    "textures":[{"source":0}],
-    "images":[{"uri":"data:image/png;base64,)" + base64Bytes(png) + R"("}],
-    "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
-                 {"bufferView":0,"byteOffset":48,"componentType":5126,"count":4,"type":"VEC2"},
-                 {"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}],
-    "bufferViews":[{"buffer":0,"byteLength":80},{"buffer":0,"byteOffset":80,"byteLength":12}],
-    "buffers":[{"byteLength":96,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+  const std::string gltf = plateGltf(R"({"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}})",
+                                     "TEXCOORD_0", {0, 1, 1, 1, 1, 0, 0, 0}, tinyPng(1, 1, {128, 128, 128}));
   const fs::path dir = tempDir(), in = dir / "grey.gltf", out = dir / "grey.glb";
   std::ofstream(in) << gltf;
   const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--view", "Standard", "--exposure", "0", "-q"});
@@ -1311,27 +1301,9 @@ TEST(LightmapOutput, ExrHoldsEveryVertexsLightAndEveryCoveredTexel) {
   EXPECT_EQ(m.extensionsUsed, (std::vector<std::string>{"KHR_materials_emissive_strength", "MOZ_lightmap"}));
 }
 
-// A 2×2 plate (ρ 0.5) under a 3 lx directional light straight down: E = 3 everywhere, whatever
-// the albedo. uv1: the plate's own TEXCOORD_1, four corners (u, v) in the order of its vertices.
+// The lightmap tests' plate (ρ 0.5) under 3 lx straight down: E = 3 everywhere, whatever the albedo.
 std::string lightmappedPlate(const std::array<float, 8>& uv1) {
-  std::vector<float> data{-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, -1};
-  data.insert(data.end(), uv1.begin(), uv1.end());
-  data.resize(data.size() + 3, 0);
-  const uint16_t indices[6] = {0, 1, 2, 0, 2, 3};
-  std::memcpy(data.data() + 20, indices, sizeof indices);
-  const double h = std::sqrt(0.5);
-  return R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],
-    "extensions":{"KHR_lights_punctual":{"lights":[{"type":"directional","intensity":3}]}},
-    "scene":0,"scenes":[{"nodes":[0,1]}],
-    "nodes":[{"mesh":0},{"rotation":[-)" + std::to_string(h) + ",0,0," + std::to_string(h) + R"(],
-              "extensions":{"KHR_lights_punctual":{"light":0}}}],
-    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_1":1},"indices":2,"material":0}]}],
-    "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0}}],
-    "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]},
-                 {"bufferView":0,"byteOffset":48,"componentType":5126,"count":4,"type":"VEC2"},
-                 {"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}],
-    "bufferViews":[{"buffer":0,"byteLength":80},{"buffer":0,"byteOffset":80,"byteLength":12}],
-    "buffers":[{"byteLength":92,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+  return plateGltf(R"({"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0}})", "TEXCOORD_1", uv1);
 }
 
 TEST(LightmapOutput, UsesTheAssetsOwnTexcoord1WhenItCanAndSaysWhyNot) {

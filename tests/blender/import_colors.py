@@ -60,7 +60,7 @@ class Fail(Exception):
 # glTF reading (independent of Blender's importer): the add-on's own reader, numpy only.
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "plugin", "blender"))
-from radbake.gltf_file import GltfError, load_gltf, node_matrix, read_accessor  # noqa: E402
+from radbake.gltf_file import GLTF_TO_BLENDER, GltfError, load_gltf, read_accessor, scene_mesh_nodes  # noqa: E402
 
 
 def triangles(mode, n_idx):
@@ -80,23 +80,10 @@ def gltf_corners(doc, buffers):
     Returns (positions (N,3) float64, tris list of (corner position rows (3,), colors (3,4) or None,
     label, degenerate)).
     """
-    scenes = doc.get("scenes", [])
-    if scenes:
-        roots = scenes[doc.get("scene", 0)].get("nodes", [])
-    else:  # no scene: every root node
-        children = {c for n in doc.get("nodes", []) for c in n.get("children", [])}
-        roots = [i for i in range(len(doc.get("nodes", []))) if i not in children]
-    to_blender = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], dtype=np.float64)
     pos_chunks, tris, base = [], [], 0
-    stack = [(r, np.eye(4)) for r in roots]
-    while stack:
-        ni, parent = stack.pop()
+    for ni, world in scene_mesh_nodes(doc):
         node = doc["nodes"][ni]
-        world = parent @ node_matrix(node)
-        stack.extend((c, world) for c in node.get("children", []))
-        if "mesh" not in node:
-            continue
-        m = to_blender @ world
+        m = GLTF_TO_BLENDER @ world
         mesh = doc["meshes"][node["mesh"]]
         for pi, prim in enumerate(mesh["primitives"]):
             attrs = prim.get("attributes", {})
