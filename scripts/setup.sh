@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 packages=(cmake ninja-build g++ pkg-config
   libtinygltf-dev libosd-dev libeigen3-dev libopenexr-dev libimath-dev libopencolorio-dev
   libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libstb-dev libdraco-dev
-  blender python3-numpy)
+  blender python3-numpy xvfb xauth)
 packages+=(chromium)  # the browser render test (tests/browser): three.js in headless Chromium
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
 command -v npm >/dev/null 2>&1 || packages+=(npm)

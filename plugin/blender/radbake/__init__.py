@@ -103,11 +103,29 @@ def _export(context, objects, path):
         view_layer.objects.active = active
 
 
+def _summary(line):
+    """radbake's closing line without the temporary output path it names."""
+    prefix = "radbake: wrote "
+    if line.startswith(prefix) and " (" in line:
+        return "radbake: baked" + line[line.index(" (", len(prefix)):]
+    return line
+
+
+def _node_name(object_name, baked):
+    """The baked node an object shows: its own name, or for an imported copy of it (replace mode)
+    the name without Blender's ".001" suffix. Each object must read its own node's vertices: where
+    two objects touch (the light in the ceiling's hole) their coincident corners differ."""
+    if object_name in baked:
+        return object_name
+    stem, dot, suffix = object_name.rpartition(".")
+    return stem if dot and suffix.isdigit() and stem in baked else None
+
+
 class RADBAKE_OT_bake(bpy.types.Operator):
     """Bake diffuse light with radbake (runs in the background; Cancel or Esc stops it)"""
     bl_idname = "radbake.bake"
     bl_label = "Bake"
-    bl_options = {'REGISTER'}
+    bl_options = {'REGISTER', 'UNDO'}  # a finished bake is one undo step
 
     @classmethod
     def poll(cls, context):
@@ -163,7 +181,7 @@ class RADBAKE_OT_bake(bpy.types.Operator):
                 self.report({'WARNING'}, warning)
             self._apply(context)
             self._keep(context.scene.radbake.keep_path)
-            state.message = (self._job.stdout_lines or ["radbake: done"])[-1]
+            state.message = _summary((self._job.stdout_lines or ["radbake: done"])[-1])
             self.report({'INFO'}, state.message)
             return {'FINISHED'}
         except Exception as e:  # reading or applying the result; the scene is left as it was
@@ -189,7 +207,7 @@ class RADBAKE_OT_bake(bpy.types.Operator):
             image.name = "radbake lightmap"
             image.pack()  # the temporary EXR goes away; the image stays in the .blend
         for obj in targets:
-            vertices = baked.get(obj.name, everything) if not settings.replace_objects else everything
+            vertices = baked.get(_node_name(obj.name, baked), everything)
             if self._lightmap:
                 apply.set_lightmap_uvs(obj, vertices, settings.attribute_name)
                 for slot in obj.material_slots:
@@ -274,6 +292,16 @@ class RADBAKE_OT_bake(bpy.types.Operator):
         wm.progress_end()
         context.workspace.status_text_set(None)
         return self._finish(context, code)
+
+    def cancel(self, context):
+        """Blender ends the modal operator itself (File > New or Open, closing the window): stop
+        radbake rather than leave it running with nobody to collect its result."""
+        self._job.cancel()
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        wm.radbake_state.is_baking = False
+        self._cleanup()
 
 
 class RADBAKE_OT_cancel(bpy.types.Operator):
