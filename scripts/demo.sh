@@ -9,5 +9,5 @@ cat <<MSG
 
 Baked: $(pwd)/out/cornell_box.glb   (summary: out/cornell_box.json)
 Look at it: drag the .glb into https://gltf-viewer.donmccurdy.com or the Khronos sample viewer, or in
-Blender: File > Import > glTF 2.0, then Viewport Shading > Attribute (COLOR_0).
+Blender: File > Import > glTF 2.0, then Viewport Shading > Attribute (COLOR_0 imports as "Col"), or use the add-on (README).
 MSG
