@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <unistd.h>
@@ -17,6 +18,7 @@
 namespace radbake {
 namespace {
 
+constexpr double kPi = std::numbers::pi;
 constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
 
@@ -162,24 +164,11 @@ void addBakeAttributes(tinygltf::Model& m, tinygltf::Primitive& prim, const std:
 // shows texture × COLOR_0, so COLOR_0 is the display value divided by it. (1, 1, 1) without one.
 std::vector<Vec3> textureAtVertices(const Scene& scene, const Primitive& prim, const PrimitivePatches& patches) {
   const TextureRef& ref = scene.materials[prim.material].baseColorTexture;
-  const size_t count = patches.patchVertex.size();
-  std::vector<Vec3> out(count, Vec3{1, 1, 1});
-  if (ref.texture < 0 || ref.texCoord >= int(prim.texcoords.size())) return out;
-  const auto& uv = prim.texcoords[ref.texCoord];
-  if (uv.size() != prim.positions.size()) return out;
-  for (size_t v = 0; v < count; ++v) {
-    std::array<double, 2> at = {0, 0};
-    if (patches.keepsSourceVertices) {
-      at = uv[v];
-    } else {
-      const SurfacePoint& sp = patches.source[v];
-      const auto& t = prim.triangles[sp.triangle];
-      const double w[3] = {1 - sp.w1 - sp.w2, sp.w1, sp.w2};
-      for (int k = 0; k < 3; ++k) {
-        at[0] += w[k] * uv[t[k]][0];
-        at[1] += w[k] * uv[t[k]][1];
-      }
-    }
+  std::vector<Vec3> out(patches.patchVertex.size(), Vec3{1, 1, 1});
+  if (ref.texture < 0 || !hasTexcoords(prim, ref.texCoord)) return out;
+  for (size_t v = 0; v < out.size(); ++v) {
+    const auto at = patches.keepsSourceVertices ? prim.texcoords[ref.texCoord][v]
+                                                : uvAt(prim, ref.texCoord, patches.source[v]);
     out[v] = sampleTexture(scene, ref, at[0], at[1]);
   }
   return out;
@@ -201,10 +190,15 @@ void makeUnlit(tinygltf::Material& material) {
   material.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object{});
 }
 
+// Determinant of the 3×3 part of a column-major 4×4 matrix: negative for a mirroring node.
+double determinant3(const std::array<double, 16>& m) {
+  return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
+}
+
 // Inverse of an affine column-major 4×4 matrix (node to world), by the 3×3 adjugate.
 std::array<double, 16> invertAffine(const std::array<double, 16>& m) {
   const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
-  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  const double det = determinant3(m);
   const double r[9] = {(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det,
                        (f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det,
                        (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det};  // row-major
@@ -343,7 +337,6 @@ struct BakedPrimitive {
 // irradiance E = π (L − L⁰) / ρ, so that a Lambertian surface of albedo ρ shows ρ E / π. Zero
 // where the surface reflects nothing (ρ = 0), where no albedo can bring light back.
 Vec3 lightOf(const Vec3& radiance, const Vec3& emission, const Vec3& reflectance) {
-  constexpr double kPi = 3.14159265358979323846;
   auto channel = [](double L, double L0, double rho) { return rho > 0 ? std::max(0.0, kPi * (L - L0) / rho) : 0.0; };
   return {channel(radiance.x, emission.x, reflectance.x), channel(radiance.y, emission.y, reflectance.y),
           channel(radiance.z, emission.z, reflectance.z)};
@@ -380,21 +373,15 @@ std::vector<Vec3> outputPositions(const Primitive& prim, const PrimitivePatches&
   if (!patches.positions.empty()) return patches.positions;  // a subdivision surface's limit points
   std::vector<Vec3> out;
   out.reserve(patches.source.size());
-  for (const SurfacePoint& sp : patches.source) {
-    const auto& t = prim.triangles[sp.triangle];
-    out.push_back(prim.positions[t[0]] * (1 - sp.w1 - sp.w2) + prim.positions[t[1]] * sp.w1 + prim.positions[t[2]] * sp.w2);
-  }
+  for (const SurfacePoint& sp : patches.source) out.push_back(positionAt(prim, sp));
   return out;
 }
 
 // The primitive's triangles in the file's own winding (the importer made them counter-clockwise in
 // world space, which flips them under a mirroring node).
 std::vector<std::array<uint32_t, 3>> sourceTriangles(const Primitive& prim) {
-  const auto& w = prim.world;
-  const double det = w[0] * (w[5] * w[10] - w[9] * w[6]) - w[4] * (w[1] * w[10] - w[9] * w[2]) +
-                     w[8] * (w[1] * w[6] - w[5] * w[2]);
   std::vector<std::array<uint32_t, 3>> out = prim.triangles;
-  if (det < 0)
+  if (determinant3(prim.world) < 0)
     for (auto& t : out) std::swap(t[1], t[2]);
   return out;
 }
@@ -533,7 +520,6 @@ LightmapSummary addLightmap(tinygltf::Model& m, std::vector<BakedPrimitive>& bak
     codes[i] = uint8_t(std::lround(255 * srgbEncode(std::clamp(image.rgb[i] / out.intensity, 0.0, 1.0))));
   // The preview: what a white (ρ = 1) surface would show, E/π, through the display transform.
   std::vector<Vec3> whiteSurface(texels);
-  constexpr double kPi = 3.14159265358979323846;
   for (size_t i = 0; i < texels; ++i)
     whiteSurface[i] = Vec3{image.rgb[3 * i], image.rgb[3 * i + 1], image.rgb[3 * i + 2]} * (1 / kPi);
   const std::vector<Vec3> shown = toDisplay(shaping, whiteSurface);

@@ -159,17 +159,6 @@ SurfacePoint locate(const Primitive& prim, const Face& face, const Vec3& x) {
 
 using UV = std::array<double, 2>;
 
-UV uvAt(const Primitive& prim, int set, const SurfacePoint& sp) {
-  const auto& t = prim.triangles[sp.triangle];
-  const auto& uv = prim.texcoords[set];
-  const double w0 = 1 - sp.w1 - sp.w2;
-  return {w0 * uv[t[0]][0] + sp.w1 * uv[t[1]][0] + sp.w2 * uv[t[2]][0], w0 * uv[t[0]][1] + sp.w1 * uv[t[1]][1] + sp.w2 * uv[t[2]][1]};
-}
-
-bool hasTexcoords(const Primitive& prim, int set) {
-  return set >= 0 && set < int(prim.texcoords.size()) && prim.texcoords[set].size() == prim.positions.size();
-}
-
 // The texture averaged over a patch (corner UVs, bilinear between them): a grid of bilinearly
 // filtered samples about one texel apart, each weighted by the patch's area element there (for a
 // triangle patch, v2 == v3, the map squeezes toward the apex), so the average is over the area.
@@ -688,6 +677,22 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   tessellateBezier(scene, options, welder, mesh);
   finishShading(scene, mesh);
   return mesh;
+}
+
+std::array<double, 2> uvAt(const Primitive& prim, int set, const SurfacePoint& sp) {
+  const auto& t = prim.triangles[sp.triangle];
+  const auto& uv = prim.texcoords[set];
+  const double w0 = 1 - sp.w1 - sp.w2;
+  return {w0 * uv[t[0]][0] + sp.w1 * uv[t[1]][0] + sp.w2 * uv[t[2]][0], w0 * uv[t[0]][1] + sp.w1 * uv[t[1]][1] + sp.w2 * uv[t[2]][1]};
+}
+
+Vec3 positionAt(const Primitive& prim, const SurfacePoint& sp) {
+  const auto& t = prim.triangles[sp.triangle];
+  return prim.positions[t[0]] * (1 - sp.w1 - sp.w2) + prim.positions[t[1]] * sp.w1 + prim.positions[t[2]] * sp.w2;
+}
+
+bool hasTexcoords(const Primitive& prim, int set) {
+  return set >= 0 && set < int(prim.texcoords.size()) && prim.texcoords[set].size() == prim.positions.size();
 }
 
 }  // namespace radbake

@@ -47,6 +47,12 @@ struct SurfacePoint {
   double w1 = 0, w2 = 0;  // weights of the triangle's 2nd and 3rd vertex (the 1st gets 1 − w1 − w2)
 };
 
+// The source primitive at a surface point (barycentric on its triangle): its TEXCOORD_`set` and its
+// world position. hasTexcoords: whether the primitive carries TEXCOORD_`set` for every vertex.
+std::array<double, 2> uvAt(const Primitive& prim, int set, const SurfacePoint& sp);
+Vec3 positionAt(const Primitive& prim, const SurfacePoint& sp);
+bool hasTexcoords(const Primitive& prim, int set);
+
 // The tessellated geometry of one scene primitive, as the exporter writes it.
 struct PrimitivePatches {
   // true: the output vertices are the glTF vertices themselves (no splitting happened), so the
