@@ -10,7 +10,7 @@ using namespace radbake;
 
 namespace {
 
-const fs::path kScenes = fs::path(RADBAKE_SHARED_DIR) / "scenes";
+const fs::path kScenes = fs::path(RADBAKE_TEST_DATA_DIR) / "scenes";
 
 Vec3 faceNormal(const Primitive& p, const std::array<uint32_t, 3>& t) {
   return normalize(cross(p.positions[t[1]] - p.positions[t[0]], p.positions[t[2]] - p.positions[t[0]]));
@@ -129,7 +129,7 @@ std::pair<std::array<double, 6>, double> extentAndArea(const Scene& scene) {
 TEST(Importer, DracoDecodesToTheSameEngine) {
   // The Draco-compressed 2CylinderEngine against the plain one: the same world extent within the
   // compression's quantization (1e-3 of the size) and the same surface area within 0.5%.
-  const fs::path assets = fs::path(RADBAKE_SHARED_DIR) / "assets" / "valid";
+  const fs::path assets = fs::path(RADBAKE_TEST_DATA_DIR) / "assets" / "valid";
   const auto plain = extentAndArea(importScene((assets / "2CylinderEngine" / "2CylinderEngine.glb").string()));
   const auto draco = extentAndArea(importScene((assets / "2CylinderEngine-draco" / "2CylinderEngine.gltf").string()));
   const double size = plain.first[3] - plain.first[0];

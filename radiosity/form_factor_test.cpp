@@ -1,5 +1,5 @@
 // Form-factor tests against answers that do not come from this code: the
-// reference JSON in RADBAKE_DATA_DIR (closed forms and independent 40-digit
+// reference JSON in tests/data/reference (closed forms and independent 40-digit
 // evaluations), closed-form shape-function integrals, and an independent
 // moment construction of the bilinear kernel (below).
 #include "radiosity/form_factor.h"
@@ -24,9 +24,9 @@ namespace {
 using nlohmann::json;
 
 std::string dataDir() {
-  if (const char* env = std::getenv("RADBAKE_DATA_DIR"); env && *env) return env;
-#ifdef RADBAKE_DATA_DIR
-  return RADBAKE_DATA_DIR;
+  if (const char* env = std::getenv("RADBAKE_REFERENCE_DIR"); env && *env) return env;
+#ifdef RADBAKE_TEST_DATA_DIR
+  return RADBAKE_TEST_DATA_DIR "/reference";
 #else
   return "";
 #endif
@@ -36,7 +36,7 @@ json loadData(const std::string& name) {
   const std::string path = dataDir() + "/" + name;
   std::ifstream in(path);
   if (!in) {
-    ADD_FAILURE() << "cannot open reference data " << path << " (set RADBAKE_DATA_DIR)";
+    ADD_FAILURE() << "cannot open reference data " << path << " (set RADBAKE_REFERENCE_DIR)";
     return json::object();
   }
   return json::parse(in);

@@ -1,6 +1,6 @@
 // Radiosity solver tests against answers that do not come from the solver: the furnace identity
-// L = L⁰/(1−ρ), the one-patch cube values and converged face averages of ../shared/data, the exact
-// two-plates field, power balance and the closed-scene mean-radiance invariant.
+// L = L⁰/(1−ρ), the one-patch cube values and converged face averages of tests/data/reference, the
+// exact two-plates field, power balance and the closed-scene mean-radiance invariant.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -21,8 +21,8 @@ using nlohmann::json;
 
 namespace {
 
-const fs::path kScenes = fs::path(RADBAKE_SHARED_DIR) / "scenes";
-const fs::path kData = RADBAKE_DATA_DIR;
+const fs::path kScenes = fs::path(RADBAKE_TEST_DATA_DIR) / "scenes";
+const fs::path kData = fs::path(RADBAKE_TEST_DATA_DIR) / "reference";
 
 Material material(const char* name, double rho, double emission, bool doubleSided = false) {
   Material m;

@@ -12,7 +12,7 @@ using namespace radbake;
 
 namespace {
 
-const fs::path kScenes = fs::path(RADBAKE_SHARED_DIR) / "scenes";
+const fs::path kScenes = fs::path(RADBAKE_TEST_DATA_DIR) / "scenes";
 
 double patchMeshArea(const PatchMesh& mesh) {
   double a = 0;

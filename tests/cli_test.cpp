@@ -26,7 +26,7 @@ using nlohmann::json;
 
 namespace {
 
-const fs::path kShared = RADBAKE_SHARED_DIR;
+const fs::path kTestData = RADBAKE_TEST_DATA_DIR;  // tests/data: reference/, scenes/, assets/
 
 struct RunResult {
   int code;
@@ -80,14 +80,21 @@ std::string extrasOf(const tinygltf::Value& v) {
   return s.str();
 }
 
+// The glTF files in dir (and, if nested, in its subfolders), sorted. Never throws: it also runs while
+// ctest lists the tests (roundTripInputs below), where an exception would abort the listing of every
+// test. A missing or unreadable folder gives fewer files, which the callers turn into a failure.
 std::vector<fs::path> filesIn(const fs::path& dir, bool nested) {
+  const auto isGltf = [](const fs::path& p) { return p.extension() == ".gltf" || p.extension() == ".glb"; };
   std::vector<fs::path> files;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    if (nested && entry.is_directory()) {
-      for (const auto& inner : fs::directory_iterator(entry.path()))
-        if (inner.path().extension() == ".gltf" || inner.path().extension() == ".glb") files.push_back(inner.path());
-    } else if (entry.path().extension() == ".gltf" || entry.path().extension() == ".glb") {
-      files.push_back(entry.path());
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code isDir;
+    if (nested && it->is_directory(isDir)) {
+      std::error_code inner;
+      for (fs::directory_iterator in(it->path(), inner); !inner && in != end; in.increment(inner))
+        if (isGltf(in->path())) files.push_back(in->path());
+    } else if (isGltf(it->path())) {
+      files.push_back(it->path());
     }
   }
   std::sort(files.begin(), files.end());
@@ -217,6 +224,7 @@ class RoundTrip : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(RoundTrip, KeepsTheDocumentAndValidates) {
   const fs::path input = GetParam();
+  ASSERT_TRUE(fs::is_regular_file(input)) << input << " has no glTF files (test data: RADBAKE_TEST_DATA_DIR)";
   const fs::path dir = tempDir();
   const fs::path glb = dir / (input.stem().string() + "_" + input.parent_path().filename().string() + ".glb");
   const fs::path gltf = dir / (input.stem().string() + "_" + input.parent_path().filename().string() + ".gltf");
@@ -246,11 +254,17 @@ TEST_P(RoundTrip, KeepsTheDocumentAndValidates) {
   EXPECT_EQ(clean, 3u) << log;
 }
 
+// Every scene and every valid asset but the Draco ones (bigger; tested on their own). A folder
+// without glTF files (test data missing) becomes one parameter, the folder itself, so that the test
+// fails naming it rather than the list coming out empty.
 std::vector<std::string> roundTripInputs() {
   std::vector<std::string> out;
-  for (const auto& f : filesIn(kShared / "scenes", false)) out.push_back(f.string());
-  for (const auto& f : filesIn(kShared / "assets" / "valid", true))
-    if (f.string().find("draco") == std::string::npos) out.push_back(f.string());
+  for (const fs::path& dir : {kTestData / "scenes", kTestData / "assets" / "valid"}) {
+    const auto files = filesIn(dir, dir.filename() == "valid");
+    if (files.empty()) out.push_back(dir.string());
+    for (const auto& f : files)
+      if (f.string().find("draco") == std::string::npos) out.push_back(f.string());
+  }
   return out;
 }
 
@@ -266,9 +280,9 @@ INSTANTIATE_TEST_SUITE_P(ScenesAndAssets, RoundTrip, ::testing::ValuesIn(roundTr
 TEST(RoundTrip, InstancedMeshGetsOneBakePerNode) {
   // nested_nodes.gltf: one mesh placed by six nodes.
   const fs::path out = tempDir() / "nested.glb";
-  ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "nested_nodes.gltf").string(), "-o", out.string(), "-q"}).code, 0);
+  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "nested_nodes.gltf").string(), "-o", out.string(), "-q"}).code, 0);
   tinygltf::Model in, m;
-  ASSERT_TRUE(loadModel(kShared / "scenes" / "nested_nodes.gltf", &in));
+  ASSERT_TRUE(loadModel(kTestData / "scenes" / "nested_nodes.gltf", &in));
   ASSERT_TRUE(loadModel(out, &m));
   EXPECT_EQ(in.meshes.size(), 1u);
   EXPECT_EQ(m.meshes.size(), 6u);
@@ -290,7 +304,7 @@ std::vector<float> radianceOf(const tinygltf::Model& m, const tinygltf::Primitiv
 }
 
 TEST(Bake, WrittenRadianceIsTheSolutionBitForBitAndReimports) {
-  const radbake::Scene scene = radbake::importScene((kShared / "scenes" / "cornell_box.gltf").string());
+  const radbake::Scene scene = radbake::importScene((kTestData / "scenes" / "cornell_box.gltf").string());
   radbake::TessellateOptions options;
   options.subdivide = 3;
   const radbake::PatchMesh mesh = radbake::tessellate(scene, options);
@@ -321,7 +335,7 @@ TEST(Bake, FurnaceRadianceIsTwoInTheWrittenFile) {
   // End to end: L = L0/(1-rho) = 2 at every vertex, as written to _RADIANCE, for both file kinds.
   for (const char* name : {"furnace.glb", "furnace.gltf"}) {
     const fs::path out = tempDir() / name;
-    ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "furnace_cube.gltf").string(), "-o", out.string(), "--subdivide",
+    ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "furnace_cube.gltf").string(), "-o", out.string(), "--subdivide",
                        "3", "-q"}).code, 0);
     tinygltf::Model m;
     ASSERT_TRUE(loadModel(out, &m));
@@ -338,7 +352,7 @@ TEST(Bake, FurnaceRadianceIsTwoInTheWrittenFile) {
 
 TEST(Bake, ConstantMethodIsWrittenFlatShaded) {
   const fs::path out = tempDir() / "cornell_constant.glb";
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
                                "--method", "constant", "--subdivide", "2", "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   tinygltf::Model m;
@@ -363,8 +377,8 @@ TEST(Bake, ConstantMethodIsWrittenFlatShaded) {
 
 TEST(Bake, TwoBakesAreBitIdentical) {
   const fs::path first = tempDir() / "cornell_first.glb", second = tempDir() / "cornell_second.glb";
-  ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", first.string(), "-q"}).code, 0);
-  ASSERT_EQ(radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", second.string(), "-q"}).code, 0);
+  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", first.string(), "-q"}).code, 0);
+  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", second.string(), "-q"}).code, 0);
   tinygltf::Model a, b;
   ASSERT_TRUE(loadModel(first, &a));
   ASSERT_TRUE(loadModel(second, &b));
@@ -376,7 +390,7 @@ TEST(Bake, TwoBakesAreBitIdentical) {
 
 TEST(Bake, SubdivisionWritesNewGeometryThatValidates) {
   const fs::path out = tempDir() / "cornell_n4.glb";
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
                                "--subdivide", "4", "-q", "--report", (tempDir() / "n4.json").string()});
   ASSERT_EQ(r.code, 0) << r.err;
   std::ifstream reportFile(tempDir() / "n4.json");
@@ -398,7 +412,7 @@ struct Broken {
 class InvalidAsset : public ::testing::TestWithParam<Broken> {};
 
 TEST_P(InvalidAsset, FailsCleanlyNamingTheElement) {
-  const fs::path input = kShared / "assets" / "invalid" / GetParam().file;
+  const fs::path input = kTestData / "assets" / "invalid" / GetParam().file;
   const fs::path out = tempDir() / (input.stem().string() + "_invalid.glb");
   fs::remove(out);
   const RunResult r = radbake({"bake", input.string(), "-o", out.string(), "--progress", "none"});
@@ -437,11 +451,11 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(InvalidAsset, EveryInvalidAssetIsCovered) {
   // A new file in invalid/ must get a case above.
-  EXPECT_EQ(filesIn(kShared / "assets" / "invalid", true).size(), 16u);
+  EXPECT_EQ(filesIn(kTestData / "assets" / "invalid", true).size(), 16u);
 }
 
 TEST(InvalidAsset, BadNormalsAreRepairedWithAWarning) {
-  const fs::path input = kShared / "assets" / "invalid" / "BoxBadNormals" / "BoxBadNormals.glb";
+  const fs::path input = kTestData / "assets" / "invalid" / "BoxBadNormals" / "BoxBadNormals.glb";
   const fs::path out = tempDir() / "badnormals.glb";
   const RunResult r = radbake({"bake", input.string(), "-o", out.string(), "--progress", "none"});
   EXPECT_EQ(r.code, 0) << r.err;
@@ -464,7 +478,7 @@ TEST(BadInput, NotGltf) {
 }
 
 TEST(BadInput, TruncatedGlb) {
-  const fs::path source = kShared / "assets" / "valid" / "BoxTextured-glb" / "BoxTextured.glb";
+  const fs::path source = kTestData / "assets" / "valid" / "BoxTextured-glb" / "BoxTextured.glb";
   std::ifstream in(source, std::ios::binary);
   std::string bytes((std::istreambuf_iterator<char>(in)), {});
   const fs::path cut = tempDir() / "cut.glb";
@@ -641,7 +655,7 @@ TEST(BadInput, NoEmitterIsAWarning) {
 }
 
 TEST(BadInput, UnwritableOutputIsExit4) {
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "furnace_cube.gltf").string(), "-o",
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "furnace_cube.gltf").string(), "-o",
                                "/nonexistent-dir/out.glb", "--progress", "none"});
   EXPECT_EQ(r.code, 4);
   EXPECT_NE(r.err.find("/nonexistent-dir/out.glb: cannot write"), std::string::npos) << r.err;
@@ -649,7 +663,7 @@ TEST(BadInput, UnwritableOutputIsExit4) {
 
 TEST(Bezier, TeapotBakesUnderASkyAndValidates) {
   const fs::path out = tempDir() / "teapot.glb";
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "teapot.bpt").string(), "-o", out.string(), "--sky",
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "teapot.bpt").string(), "-o", out.string(), "--sky",
                                "1,1,1", "--max-chord", "0.05", "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   tinygltf::Model m;
@@ -686,7 +700,7 @@ TEST(Bezier, BrokenPatchFileNamesTheLine) {
 }
 
 TEST(Sky, BadSkyIsAUsageError) {
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "two_plates.gltf").string(), "-o",
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "two_plates.gltf").string(), "-o",
                                (tempDir() / "sky.glb").string(), "--sky", "1,-2,3"});
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("--sky 1,-2,3: expected R,G,B"), std::string::npos) << r.err;
@@ -887,7 +901,7 @@ TEST(Fuzz, CrashesFoundByFuzzingStayFixed) {
 }
 
 TEST(Cli, SceneChoosesTheGltfScene) {
-  const std::string in = (kShared / "scenes" / "cornell_box.gltf").string();
+  const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
   EXPECT_EQ(radbake({"bake", in, "-o", (tempDir() / "s0.glb").string(), "--scene", "0", "-q"}).code, 0);
   const RunResult r = radbake({"bake", in, "-o", (tempDir() / "s3.glb").string(), "--scene", "3"});
   EXPECT_EQ(r.code, 1);
@@ -895,7 +909,7 @@ TEST(Cli, SceneChoosesTheGltfScene) {
 }
 
 TEST(Info, ListsMeshesWithTheirInstances) {
-  const RunResult r = radbake({"info", (kShared / "scenes" / "nested_nodes.gltf").string()});
+  const RunResult r = radbake({"info", (kTestData / "scenes" / "nested_nodes.gltf").string()});
   ASSERT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("mesh 0: 6 instance(s), 12 triangles baked"), std::string::npos) << r.out;
 }
@@ -983,7 +997,7 @@ TEST(Display, AConfigFileIsHonoured) {
 
   // Through the command line, both as --ocio-config and as $OCIO: COLOR_0 is the decoded display value.
   const fs::path dir = tempDir();
-  const std::string in = (kShared / "scenes" / "cornell_box.gltf").string();
+  const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
   for (bool viaEnvironment : {false, true}) {
     const fs::path out = dir / (viaEnvironment ? "env.glb" : "flag.glb");
     std::vector<std::string> args{"bake", in, "-o", out.string(), "--exposure", "0.5", "-q"};
@@ -1015,7 +1029,7 @@ TEST(Display, ABadConfigOrViewIsOneClearLine) {
   const fs::path dir = tempDir();
   const fs::path bad = dir / "broken.ocio";
   std::ofstream(bad) << "ocio_profile_version: 2\nroles: [this is not a config\n";
-  const std::string in = (kShared / "scenes" / "furnace_cube.gltf").string();
+  const std::string in = (kTestData / "scenes" / "furnace_cube.gltf").string();
   const std::string out = (dir / "bad.glb").string();
   RunResult r = radbake({"bake", in, "-o", out, "--ocio-config", bad.string()});
   EXPECT_EQ(r.code, 2);
@@ -1037,7 +1051,7 @@ TEST(Display, ABadConfigOrViewIsOneClearLine) {
 TEST(Display, CornellColorsAreTheStandardViewAndMaterialsUnlit) {
   const fs::path dir = tempDir();
   const fs::path out = dir / "standard.glb", report = dir / "standard.json";
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
                                "--view", "Standard", "--exposure", "1", "--report", report.string(), "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   tinygltf::Model m;
@@ -1061,7 +1075,7 @@ TEST(Display, CornellColorsAreTheStandardViewAndMaterialsUnlit) {
 TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileAtTheTarget) {
   const fs::path dir = tempDir();
   const fs::path out = dir / "auto.glb", report = dir / "auto.json";
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
                                "--report", report.string()});
   ASSERT_EQ(r.code, 0) << r.err;
   tinygltf::Model m;
@@ -1116,7 +1130,7 @@ TEST(Cli, VersionAndHelp) {
 TEST(Cli, DracoAssetBakesAndValidates) {
   // KHR_draco_mesh_compression, decoded by the radbake-draco-decode helper: the output is plain
   // glTF (the extension removed) and validates.
-  const std::string in = (kShared / "assets" / "valid" / "2CylinderEngine-draco" / "2CylinderEngine.gltf").string();
+  const std::string in = (kTestData / "assets" / "valid" / "2CylinderEngine-draco" / "2CylinderEngine.gltf").string();
   const fs::path out = tempDir() / "draco.glb", lightmapped = tempDir() / "draco_lightmapped.glb";
   RunResult r = radbake({"bake", in, "-o", out.string(), "--progress", "none", "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
@@ -1132,11 +1146,11 @@ TEST(Cli, DracoAssetBakesAndValidates) {
 }
 
 TEST(Info, CountsMatchTheAssetIndex) {
-  std::ifstream indexFile(kShared / "assets" / "index.json");
+  std::ifstream indexFile(kTestData / "assets" / "index.json");
   const json index = json::parse(indexFile);
   int checked = 0;
   for (const auto& entry : index["valid"]) {
-    const fs::path file = kShared / "assets" / "valid" / entry["file"].get<std::string>();
+    const fs::path file = kTestData / "assets" / "valid" / entry["file"].get<std::string>();
     SCOPED_TRACE(file.string());
     const RunResult r = radbake({"info", file.string(), "--json"});
     ASSERT_EQ(r.code, 0) << r.err;
@@ -1149,14 +1163,14 @@ TEST(Info, CountsMatchTheAssetIndex) {
 }
 
 TEST(Info, TextSummaryNamesMaterialsAndEmitters) {
-  const RunResult r = radbake({"info", (kShared / "scenes" / "cornell_box.gltf").string()});
+  const RunResult r = radbake({"info", (kTestData / "scenes" / "cornell_box.gltf").string()});
   ASSERT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("emits (17, 12, 4)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("reflectance (0.63, 0.065, 0.05)"), std::string::npos) << r.out;
 }
 
 TEST(Progress, JsonLinesNameEachStage) {
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "furnace_cube.gltf").string(), "-o",
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "furnace_cube.gltf").string(), "-o",
                                (tempDir() / "progress.glb").string(), "--progress", "json"});
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* stage : {"import", "tessellate", "solve", "export"})
@@ -1169,11 +1183,11 @@ namespace {
 
 TEST(Assets, EveryValidAssetBakes) {
   // Every sample asset bakes (exit 0), each warning said once, and every output validates.
-  std::ifstream indexFile(kShared / "assets" / "index.json");
+  std::ifstream indexFile(kTestData / "assets" / "index.json");
   const json index = json::parse(indexFile);
   std::vector<fs::path> baked;
   for (const auto& entry : index["valid"]) {
-    const fs::path file = kShared / "assets" / "valid" / entry["file"].get<std::string>();
+    const fs::path file = kTestData / "assets" / "valid" / entry["file"].get<std::string>();
     const fs::path out = tempDir() / (entry["model"].get<std::string>() + "_bake.glb");
     const RunResult r = radbake({"bake", file.string(), "-o", out.string(), "--progress", "none"});
     std::set<std::string> lines;
@@ -1235,7 +1249,7 @@ bool nearHalf(double value, double expected) {  // half float: 11 significant bi
 TEST(LightmapOutput, ExrHoldsEveryVertexsLightAndEveryCoveredTexel) {
   const fs::path dir = tempDir();
   const fs::path out = dir / "cornell_lm.glb", exr = dir / "cornell_lm.exr", report = dir / "cornell_lm.json";
-  const RunResult r = radbake({"bake", (kShared / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
                                "--subdivide", "4", "--lightmap", exr.string(), "--lightmap-size", "512", "--report",
                                report.string(), "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
@@ -1338,7 +1352,7 @@ TEST(LightmapOutput, UsesTheAssetsOwnTexcoord1WhenItCanAndSaysWhyNot) {
 
 TEST(LightmapOutput, AFailedWriteLeavesNothingAndBadNamesAreUsageErrors) {
   const fs::path dir = tempDir();
-  const std::string in = (kShared / "scenes" / "cornell_box.gltf").string();
+  const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
   const fs::path out = dir / "nowhere.glb";
   RunResult r = radbake({"bake", in, "-o", out.string(), "--lightmap", (dir / "missing" / "lm.exr").string()});
   EXPECT_EQ(r.code, 4);

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # ctest wrapper: bake files with radbake and check that Blender's glTF importer shows their COLOR_0
 # (tests/blender/import_colors.py). Exit 77 (ctest SKIP) when Blender is not installed.
-#   run_import_test.sh RADBAKE_BINARY SHARED_DIR
+#   run_import_test.sh RADBAKE_BINARY TEST_DATA_DIR      (TEST_DATA_DIR: tests/data)
 set -euo pipefail
 
 if ! command -v blender >/dev/null 2>&1; then
@@ -9,11 +9,11 @@ if ! command -v blender >/dev/null 2>&1; then
   exit 77
 fi
 if [ $# -ne 2 ]; then
-  echo "usage: $0 RADBAKE_BINARY SHARED_DIR" >&2
+  echo "usage: $0 RADBAKE_BINARY TEST_DATA_DIR" >&2
   exit 2
 fi
 radbake=$(realpath "$1")
-shared=$(realpath "$2")
+data=$(realpath "$2")
 root=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$root"
 
@@ -36,12 +36,12 @@ check "$tmp/cornell.glb" || status=1
 
 # A textured asset with a node hierarchy, scaled children and one mesh placed by three nodes
 # (baked per instance); it has no emitter, so a uniform sky lights it.
-"$radbake" bake "$shared/assets/valid/TextureTransformTest/TextureTransformTest.gltf" \
+"$radbake" bake "$data/assets/valid/TextureTransformTest/TextureTransformTest.gltf" \
   -o "$tmp/texture_transform.glb" --subdivide 4 --sky 1 -q
 check "$tmp/texture_transform.glb" || status=1
 
 # Textured box whose root node is a rotation matrix.
-"$radbake" bake "$shared/assets/valid/BoxTextured-glb/BoxTextured.glb" -o "$tmp/box_textured.glb" \
+"$radbake" bake "$data/assets/valid/BoxTextured-glb/BoxTextured.glb" -o "$tmp/box_textured.glb" \
   --subdivide 4 --sky 1 -q
 check "$tmp/box_textured.glb" || status=1
 

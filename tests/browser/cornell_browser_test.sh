@@ -3,7 +3,7 @@
 # headless Chromium from the file's camera (tools/render_gltf.mjs) and checks the pixels on the red
 # wall, the green wall, the floor, the back wall and the light against 255·sRGB(clamp(2^EV·L)),
 # L the exact radiance there from `radbake --probe` (an answer independent of exporter and viewer).
-#   cornell_browser_test.sh RADBAKE_BINARY [SHARED_DIR]
+#   cornell_browser_test.sh RADBAKE_BINARY
 # Two variants:
 #   vertex colours: --view Standard --exposure EV (COLOR_0, KHR_materials_unlit), rendered with no
 #     tone mapping; tolerance ±2 code values (measured: ≤ 0.6, from 8-bit output and SwiftShader).
@@ -19,8 +19,8 @@
 # Exit 77 (ctest SKIP) when node, Chromium or tools/node_modules (three, playwright-core) are missing.
 set -uo pipefail
 
-if [ $# -lt 1 ] || [ $# -gt 2 ]; then
-  echo "usage: $0 RADBAKE_BINARY [SHARED_DIR]" >&2
+if [ $# -ne 1 ]; then
+  echo "usage: $0 RADBAKE_BINARY" >&2
   exit 2
 fi
 radbake=$(realpath "$1")
