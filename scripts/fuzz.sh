@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fuzzes the glTF importer with libFuzzer (clang, ASan + UBSan) for SECONDS (default 600), seeded
-# with every asset and scene in ../shared. Crashes land in build-fuzz/crashes/; turn each into a
+# with every asset and scene in tests/data. Crashes land in build-fuzz/crashes/; turn each into a
 # regression test in tests/ before fixing it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,8 +11,8 @@ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_
   -DRADBAKE_FUZZ=ON -DRADBAKE_TESTS=OFF -DRADBAKE_BENCHMARKS=OFF >/dev/null
 cmake --build build-fuzz --target importers_fuzz
 mkdir -p build-fuzz/corpus build-fuzz/crashes
-shared=${RADBAKE_SHARED_DIR:-../shared}
-find "$shared/assets" "$shared/scenes" -name '*.gl*' -size -2M -exec cp {} build-fuzz/corpus/ \;
+data=${RADBAKE_TEST_DATA_DIR:-tests/data}
+find "$data/assets" "$data/scenes" -name '*.gl*' -size -2M -exec cp {} build-fuzz/corpus/ \;
 echo "fuzzing for ${seconds}s ($(ls build-fuzz/corpus | wc -l) seeds)"
 build-fuzz/tests/fuzz/importers_fuzz build-fuzz/corpus -max_total_time="$seconds" -timeout=20 -rss_limit_mb=4096 \
   -artifact_prefix=build-fuzz/crashes/ -print_final_stats=1

@@ -1,4 +1,5 @@
-"""Cycles bake of per-vertex outgoing radiance (Blender 3.4, headless), after /work/shared/blender.md.
+"""Cycles bake of per-vertex outgoing radiance (Blender 3.4, headless), after the team's Blender notes
+(blender.md, kept beside the repository, not in it).
 
 blender -b --factory-startup --python-exit-code 1 --python cycles_bake.py -- IN.gltf OUT.npz --samples N [--seed S]
 

@@ -16,7 +16,7 @@ root=$(cd "$here/../.." && pwd)
 cd "$root"
 bin=build/plugin/cli/radbake
 [ -x "$bin" ] || scripts/build.sh
-scene=${SCENE:-/work/shared/scenes/cornell_box.gltf}
+scene=${SCENE:-tests/data/scenes/cornell_box.gltf}
 RADBAKE_N=${RADBAKE_N:-"1 2 4 8 12 16"}
 CYCLES_SAMPLES=${CYCLES_SAMPLES:-"4 16 64 256 1024"}
 REF_N=${REF_N:-"16 24"}

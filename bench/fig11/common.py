@@ -16,7 +16,8 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
 RADBAKE = os.environ.get("RADBAKE", os.path.join(ROOT, "build", "plugin", "cli", "radbake"))
-SHARED = os.environ.get("RADBAKE_SHARED", os.path.abspath(os.path.join(ROOT, "..", "shared")))
+# Scenes and reference values: tests/data, or another copy named by RADBAKE_TEST_DATA_DIR.
+TEST_DATA = os.environ.get("RADBAKE_TEST_DATA_DIR", os.path.join(ROOT, "tests", "data"))
 OUT = os.path.join(HERE, "out")
 IMAGES = os.path.join(ROOT, "docs", "images")
 

@@ -48,7 +48,7 @@ def plot(path, title, series, ylabel):
 
 # ------------------------------------------------------------------------------------------------
 def floor_emitter(work, md):
-    scene = os.path.join(C.SHARED, "scenes", "floor_emitter_cube.gltf")
+    scene = os.path.join(C.TEST_DATA, "scenes", "floor_emitter_cube.gltf")
     M = 64
     BIL = [1, 2, 3, 4, 5, 6, 8, 10, 12, 16]
     CON = [1, 2, 3, 4, 5, 6, 8, 10, 12, 16, 24]
@@ -90,7 +90,7 @@ def floor_emitter(work, md):
     err = {k: rr(v, ref, five) for k, v in vals.items()}
     err6 = {k: rr(v, ref, six) for k, v in vals.items()}
     erra = {k: rr(v, ref, away) for k, v in vals.items()}
-    cont = json.load(open(os.path.join(C.SHARED, "data", "cube_radiosity.json")))["floor_emitter"]["continuous"]["face_average"]
+    cont = json.load(open(os.path.join(C.TEST_DATA, "reference", "cube_radiosity.json")))["floor_emitter"]["continuous"]["face_average"]
     fr = [C.richardson(R1, R2, favg[R1][f], favg[R2][f], 2.0) for f in range(6)]
     fits = {}
     for method, levels in (("bilinear", BIL), ("constant", CON)):
@@ -138,7 +138,7 @@ def floor_emitter(work, md):
 
 # ------------------------------------------------------------------------------------------------
 def cornell(work, md):
-    scene = os.path.join(C.SHARED, "scenes", "cornell_box.gltf")
+    scene = os.path.join(C.TEST_DATA, "scenes", "cornell_box.gltf")
     M = 32
     BIL = [1, 2, 3, 4, 6, 8, 12]
     CON = [1, 2, 3, 4, 6, 8, 12]

@@ -1,6 +1,6 @@
 """Fig. 11 of Bian, Wittels & Fussell: patches needed by the bilinear (vertex) method and by the
 classic constant-patch method for the same point accuracy, in the paper's box
-(../shared/scenes/emitter_cube.gltf). Run through bench/fig11/run.sh.
+(tests/data/scenes/emitter_cube.gltf). Run through bench/fig11/run.sh.
 
 Error metric: relative RMS point error over a dense probe grid, |L_method − L_ref| RMS / L_ref RMS,
 grey scene so one channel (r). Probes: 64×64 cell centres (2i+1)/128 per face, which never lie on
@@ -8,7 +8,7 @@ a patch edge k/N for any N < 64 (so the constant method's value at a probe is ne
 Main metric: the five reflecting faces (the paper's images look into the box through the emitter,
 which is not in the picture); the six-face number (emitter included, L = L⁰ + reflected) is shown too.
 Reference: bilinear N = 32 and 48, Richardson-extrapolated pointwise with order 2, checked against
-N = 24 (observed order) and against ../shared/data/cube_radiosity.json (face averages).
+N = 24 (observed order) and against tests/data/reference/cube_radiosity.json (face averages).
 """
 import json
 import os
@@ -25,8 +25,8 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-SCENE = os.path.join(C.SHARED, "scenes", "emitter_cube.gltf")
-DATA = os.path.join(C.SHARED, "data", "cube_radiosity.json")
+SCENE = os.path.join(C.TEST_DATA, "scenes", "emitter_cube.gltf")
+DATA = os.path.join(C.TEST_DATA, "reference", "cube_radiosity.json")
 M = 64                                    # probes per face edge
 BIL = [1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 16]
 CON = list(range(1, 25))

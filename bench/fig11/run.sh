@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fig. 11 of the paper, reproduced on the paper's box (../shared/scenes/emitter_cube.gltf): dense-grid
+# Fig. 11 of the paper, reproduced on the paper's box (tests/data/scenes/emitter_cube.gltf): dense-grid
 # point error of the bilinear (N = 1…8, 10, 12, 16) and constant (N = 1…24) methods against a converged
 # bilinear reference (N = 32 and 48, Richardson), the best-match table and the log-log plot.
 # Writes bench/fig11/out/fig11.md (+ fig11_errors.json) and docs/images/fig11_error_vs_patches.png.

@@ -25,8 +25,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
-CORNELL = Path("/work/shared/scenes/cornell_box.gltf")
-ENGINE = Path("/work/shared/assets/valid/2CylinderEngine/2CylinderEngine.glb")
+CORNELL = ROOT / "tests" / "data" / "scenes" / "cornell_box.gltf"
+ENGINE = ROOT / "tests" / "data" / "assets" / "valid" / "2CylinderEngine" / "2CylinderEngine.glb"
 STAGES = ["import", "tessellate", "solve", "export", "total"]
 MATRIX_BUDGET = 2 << 30      # RadiosityOptions::matrixMemoryBytes (radiosity/radiosity.h)
 BYTES_PER_ENTRY = 12         # kBytesPerEntry: uint32 column + double value (radiosity.cpp)
@@ -403,7 +403,7 @@ def main():
          f" CPU s = user + sys is the load-independent measure)",
          f"- wall time of all bakes: {runner.spent:.0f} s; budgets: {a.case_budget:.0f} s per large case,"
          f" {a.total_budget:.0f} s in all", "",
-         "Cornell box: /work/shared/scenes/cornell_box.gltf, 24 input quads, --subdivide N → 24 N² patches. "
+         "Cornell box: tests/data/scenes/cornell_box.gltf, 24 input quads, --subdivide N → 24 N² patches. "
          "Engine: 2CylinderEngine.glb with --sky 1 (it has no emitter); below its full size, parts of it "
          "(bench/scaling/engine_subset.py keeps the first mesh instances). Stage times are radbake's report "
          "(wall); solve includes the BVH build, the sky-fraction pass (engine), the matrix assembly and the "
