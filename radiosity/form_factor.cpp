@@ -16,6 +16,9 @@ constexpr double kPi = 3.14159265358979323846;
 // genuine near-edge receiver (1e-6 away, say) is still integrated as such.
 constexpr double kPlaneTolerance = 1e-10;
 
+// An approach direction within this (cosine) of a source's plane is taken as lying in it.
+constexpr double kGrazingApproach = 1e-6;
+
 // Consecutive vertices closer than this (relative to size) are one vertex.
 constexpr double kDuplicateTolerance = 1e-12;
 
@@ -125,27 +128,42 @@ double pointFactor(const Polygon& poly, const Vec3& p, const Vec3& n, Scratch& s
   return contourSum(scratch.b, n);
 }
 
-double limitFactor(const Polygon& poly, const Vec3& p, const Vec3& n, const Vec3& approach, Scratch& scratch) {
-  const double tol = kPlaneTolerance * poly.size;
-  if (std::abs(dot(poly.normal, p - poly.v[0])) > tol) return pointFactor(poly, p, n, scratch);
-
-  // Which boundary feature holds p: a corner (vertex) or an edge interior.
-  const int k = static_cast<int>(poly.v.size());
+// Where p touches a polygon's boundary: at a corner, inside an edge, or not at all. Measured in
+// 3D against the corners and edge segments, not against the polygon's plane: a quad whose corners
+// come from float data is planar only to ~1e-8 of its size, so a corner of the quad can sit that
+// far off the plane fitted through it. A shared corner or edge point still coincides to the bit
+// (the welder and the tessellator produce them from the same numbers), and that is what counts.
+struct BoundaryFeature {
   int corner = -1, edge = -1;
-  for (int i = 0; i < k && corner < 0; ++i) {
-    if (length(p - poly.v[i]) <= tol) corner = i;
+  bool touches() const { return corner >= 0 || edge >= 0; }
+};
+
+BoundaryFeature boundaryFeature(const Polygon& poly, const Vec3& p, double tol) {
+  BoundaryFeature f;
+  const int k = static_cast<int>(poly.v.size());
+  for (int i = 0; i < k && f.corner < 0; ++i) {
+    if (length(p - poly.v[i]) <= tol) f.corner = i;
   }
-  if (corner < 0) {
-    for (int i = 0; i < k && edge < 0; ++i) {
-      const Vec3& a = poly.v[i];
-      const Vec3 d = poly.v[(i + 1) % k] - a;
-      const double lambda = std::clamp(dot(p - a, d) / dot(d, d), 0.0, 1.0);
-      if (length(p - (a + d * lambda)) <= tol) edge = i;
-    }
+  if (f.corner >= 0) return f;
+  for (int i = 0; i < k && f.edge < 0; ++i) {
+    const Vec3& a = poly.v[i];
+    const Vec3 d = poly.v[(i + 1) % k] - a;
+    const double lambda = std::clamp(dot(p - a, d) / dot(d, d), 0.0, 1.0);
+    if (length(p - (a + d * lambda)) <= tol) f.edge = i;
   }
-  if (corner < 0 && edge < 0) return 0;  // in the plane, off the boundary: seen edge-on
+  return f;
+}
+
+double limitFactor(const Polygon& poly, const Vec3& p, const Vec3& n, const Vec3& approach, Scratch& scratch) {
+  const BoundaryFeature feature = boundaryFeature(poly, p, kPlaneTolerance * poly.size);
+  if (!feature.touches()) return pointFactor(poly, p, n, scratch);
+  const int k = static_cast<int>(poly.v.size());
+  const int corner = feature.corner, edge = feature.edge;
   const Vec3 a = normalize(approach);
-  if (!(dot(poly.normal, a) > 1e-12)) return 0;  // approaching from behind or within the plane
+  // Approaching from behind or within the plane. Within means up to float noise: a face and a
+  // coincident face of opposite orientation (a plate modelled from both sides) differ from exactly
+  // coplanar by ~1e-8 of their size, and a wedge that thin holds a negligible factor anyway.
+  if (!(dot(poly.normal, a) > kGrazingApproach)) return 0;
 
   // Tangent cone at p: boundary rays along d1 and d2 (in the order of the
   // polygon's winding), closed at infinity by the arc of in-plane directions
@@ -515,33 +533,33 @@ std::array<double, 4> vertexQuadKernel(const Vec3& p, const Vec3& n, const Vec3&
   if (!makePolygon(quad.data(), 4, poly)) return k;
   const double tol = kPlaneTolerance * poly.size;
   const QuadMap map{quad};
-  const double h = dot(poly.normal, p - poly.v[0]);
-  if (!(h > tol)) {
-    if (h < -tol) return k;  // behind the source
-    // In the source's plane: either on its boundary (a crease shared with the
-    // receiver's face), where the limit factor concentrates at p, or
-    // coplanar and seeing nothing.
-    const NearestPoint np = nearestPoint(map, poly.normal, p);
-    if (!(np.boundaryDistance <= tol)) {
-      // p inside the source's interior (a block standing on a floor patch): approached from
-      // its own face, the source is the whole plane seen from just above it, whose horizon-
-      // clipped projected solid angle is (1 − n·m)/2; it all sits at p.
-      if (!np.inside || !(dot(approach, poly.normal) > 0)) return k;
-      const double f = 0.5 * (1 - dot(n, poly.normal));
-      const auto nj = shapeFunctions(np.s, np.t);
-      for (int j = 0; j < 4; ++j) k[j] = nj[j] * f;
-      return k;
-    }
-    Scratch scratch;
+  Scratch scratch;
+  if (boundaryFeature(poly, p, tol).touches()) {
+    // On the source's boundary (a crease or corner shared with the receiver's face): the limit
+    // factor concentrates at p.
     const double f = limitFactor(poly, p, n, approach, scratch);
     // A cone lying behind the receiver's horizon clips to a sliver of rounding size; a crease
     // factor that small is no light at all (and would leak 1e-35 through closed corners).
     if (!(f > kNegligibleLimitFactor)) return k;
+    const NearestPoint np = nearestPoint(map, poly.normal, p);
     const auto nj = shapeFunctions(np.s, np.t);
     for (int j = 0; j < 4; ++j) k[j] = nj[j] * f;
     return k;
   }
-  Scratch scratch;
+  const double h = dot(poly.normal, p - poly.v[0]);
+  if (!(h > tol)) {
+    if (h < -tol) return k;  // behind the source
+    // In the source's plane, off its boundary: either inside it (a block standing on a floor
+    // patch: approached from its own face, the source is the whole plane seen from just above
+    // it, whose horizon-clipped projected solid angle is (1 − n·m)/2, all at p) or beside it,
+    // seeing it edge-on.
+    const NearestPoint np = nearestPoint(map, poly.normal, p);
+    if (!np.inside || !(dot(approach, poly.normal) > 0)) return k;
+    const double f = 0.5 * (1 - dot(n, poly.normal));
+    const auto nj = shapeFunctions(np.s, np.t);
+    for (int j = 0; j < 4; ++j) k[j] = nj[j] * f;
+    return k;
+  }
   const double f = pointFactor(poly, p, n, scratch);
   // Below this the factor is a horizon-clipping sliver of rounding size, not light.
   if (!(f > kNegligibleLimitFactor)) return k;

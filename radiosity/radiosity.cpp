@@ -7,10 +7,13 @@
 #include <atomic>
 #include <cmath>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <span>
+#include <tuple>
 
+#include "radiosity/enclosure.h"
 #include "radiosity/form_factor.h"
 #include "radiosity/visibility.h"
 
@@ -20,28 +23,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 // Where visibility is first probed on a patch, in (s, t): its centre and four inner points.
 constexpr double kProbe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
-
-// The patches around each vertex (CSR), to keep them from occluding the vertex's own rays.
-struct VertexPatches {
-  std::vector<size_t> start;
-  std::vector<uint32_t> patch;
-  std::span<const uint32_t> of(size_t v) const { return {patch.data() + start[v], start[v + 1] - start[v]}; }
-};
-
-VertexPatches vertexPatches(const PatchMesh& mesh) {
-  VertexPatches out;
-  out.start.assign(mesh.positions.size() + 1, 0);
-  for (const Patch& p : mesh.patches)
-    for (int k = 0; k < 4; ++k)
-      if (k < 3 || p.v[3] != p.v[2]) ++out.start[p.v[k] + 1];
-  for (size_t v = 0; v < mesh.positions.size(); ++v) out.start[v + 1] += out.start[v];
-  out.patch.resize(out.start.back());
-  std::vector<size_t> fill(out.start.begin(), out.start.end() - 1);
-  for (size_t i = 0; i < mesh.patches.size(); ++i)
-    for (int k = 0; k < 4; ++k)
-      if (k < 3 || mesh.patches[i].v[3] != mesh.patches[i].v[2]) out.patch[fill[mesh.patches[i].v[k]]++] = uint32_t(i);
-  return out;
-}
 
 // Calls progress(fraction) at most ~100 times, from whichever worker crosses each step.
 class Ticker {
@@ -89,6 +70,37 @@ struct Transport {
   std::vector<double> value;
   bool stored() const { return !start.empty(); }
 };
+
+// Closure (docs/radiosity.md): an enclosed unknown's hemisphere is covered by the scene, so its row
+// sums to exactly 1. The kernels and crease limits are exact; what is not is the visible fraction
+// of a partly hidden source, estimated from rays. Scaling the row to 1 removes that estimate's net
+// gain or loss (a furnace holds to rounding) without moving light between sources. Rows far from
+// 1 are left alone: that is not estimation error but a scene the test misjudged.
+struct Closure {
+  std::vector<bool> patches;            // per patch: enclosed (enclosedPatches)
+  std::vector<bool> rows;               // per unknown: enclosed
+  std::atomic<double> largest{0};       // largest |Σ − 1| corrected
+  // Light never crosses a closed surface: an enclosed receiver gathers only from enclosed
+  // patches, any other only from the rest. Exact, and it keeps a ray that slips through a closed
+  // surface at a shared corner (a saddle of a torus, seen by estimated visibility) from bringing in
+  // the light of its outside.
+  bool separates(size_t row, size_t patch) const { return rows[row] != patches[patch]; }
+};
+
+void applyClosure(Transport& t, std::shared_ptr<Closure> closure) {
+  t.build = [inner = t.build, closure](size_t i, Row& row) {
+    inner(i, row);
+    if (!closure->rows[i]) return;
+    double sum = 0;
+    for (const auto& entry : row) sum += entry.second;
+    if (!(sum > 0.9 && sum < 1.1)) return;
+    for (auto& entry : row) entry.second /= sum;
+    const double change = std::abs(sum - 1);
+    double seen = closure->largest.load();
+    while (change > seen && !closure->largest.compare_exchange_weak(seen, change)) {
+    }
+  };
+}
 
 constexpr size_t kBytesPerEntry = sizeof(uint32_t) + sizeof(double);
 
@@ -138,37 +150,172 @@ Vec3 pointOnPatch(const std::array<Vec3, 4>& q, double s, double t) {
   return q[0] * n[0] + q[1] * n[1] + q[2] * n[2] + q[3] * n[3];
 }
 
-// For each vertex, the direction into its own surface from which a crease vertex takes its limit:
-// the mean direction to the centroids of the patches around it (the corner bisector for a patch
-// corner, the inward perpendicular on an edge).
-std::vector<Vec3> approachDirections(const PatchMesh& mesh) {
-  std::vector<Vec3> sum(mesh.positions.size());
-  for (const Patch& patch : mesh.patches) {
+// What a receiving vertex needs besides its position and normal.
+//  * approach: the direction into its own surface from which a crease vertex takes its limit: the
+//    mean direction to the centroids of the patches around it (the corner bisector for a patch
+//    corner, the inward perpendicular on an edge). Not projected onto the tangent plane: on a
+//    curved surface the facets around a vertex rise or fall away from it, and the limit must be
+//    taken inside them (inside the closed faceted surface), or the closure Σ_j K_ij = 1 loses the
+//    near field (docs/radiosity.md).
+//  * origin: where its visibility rays start. Just off the vertex, into its face and into the
+//    free side of every surface meeting at that point (freeDirection over the planes of all
+//    patches of this side at this position, an unwelded crease included), plus the approach. The
+//    face normal alone would leave a narrow apex (a cone's tip) through the opposite facets.
+//  * ignore: the patches around it and their double-sided twins, which never block its rays.
+//  * twins: the twins of its own patches, which it never sees (a side does not light its twin).
+struct Receivers {
+  std::vector<Vec3> normal, approach, origin;  // normal: the receiving orientation (see receivers())
+  std::vector<size_t> start;     // CSR over vertices
+  std::vector<uint32_t> ignore;  // own patches first, then their twins
+  std::vector<uint32_t> ownCount;
+  std::span<const uint32_t> ignored(size_t v) const { return {ignore.data() + start[v], start[v + 1] - start[v]}; }
+  std::span<const uint32_t> own(size_t v) const { return {ignore.data() + start[v], ownCount[v]}; }
+  // Whether `patch` is the twin of one of v's own patches.
+  bool isOwnTwin(size_t v, uint32_t patch) const {
+    const auto all = ignored(v);
+    return std::find(all.begin() + ownCount[v], all.end(), patch) != all.end();
+  }
+};
+
+bool usesCorner(const Patch& p, int k) { return k < 3 || p.v[3] != p.v[2]; }
+
+// A direction into the free side of every plane in `normals` (dot ≥ a margin with each), where
+// there is one: the sum of the normals, corrected perceptron-style toward any plane it still
+// points behind (a narrow wedge between planes of unequal count, the tip of a cone). Returns false
+// where the planes meet as a saddle and no such direction exists.
+bool freeDirection(const std::vector<Vec3>& normals, Vec3& d) {
+  Vec3 sum{};
+  for (const Vec3& m : normals) sum += m;
+  if (!(length(sum) > 1e-9)) return false;
+  d = normalize(sum);
+  for (int step = 0; step < 64; ++step) {
+    const Vec3* worst = nullptr;
+    double lowest = 0.05;  // a margin, so the offset point is not within rounding of a plane
+    for (const Vec3& m : normals)
+      if (dot(m, d) < lowest) lowest = dot(m, d), worst = &m;
+    if (!worst) return true;
+    d = normalize(d + *worst * (0.1 - lowest));
+  }
+  return false;
+}
+
+Receivers receivers(const PatchMesh& mesh, double offset) {
+  const size_t n = mesh.positions.size();
+  Receivers r;
+  std::vector<std::vector<uint32_t>> own(n);
+  std::vector<Vec3> toCentroids(n);
+  for (size_t i = 0; i < mesh.patches.size(); ++i) {
+    const Patch& patch = mesh.patches[i];
     const auto q = corners(mesh, patch);
     const Vec3 centroid = pointOnPatch(q, 0, 0);
     for (int k = 0; k < 4; ++k) {
-      if (k == 3 && patch.v[3] == patch.v[2]) continue;
-      sum[patch.v[k]] += normalize(centroid - mesh.positions[patch.v[k]]);
+      if (!usesCorner(patch, k)) continue;
+      own[patch.v[k]].push_back(uint32_t(i));
+      toCentroids[patch.v[k]] += normalize(centroid - mesh.positions[patch.v[k]]);
     }
   }
-  // Not projected onto the tangent plane: on a curved surface the facets around a vertex rise or
-  // fall away from it, and the limit must be taken inside them (inside the closed faceted surface),
-  // or the closure Σ_j K_ij = 1 loses the near field.
-  for (Vec3& a : sum) a = normalize(a);
-  return sum;
+  // The planes of all patches meeting at each position, per side (front and back twins apart).
+  // Keyed by the exact position: coincident vertices of an unwelded crease come from the same
+  // numbers.
+  struct Key {
+    Vec3 p;
+    bool back;
+    bool operator<(const Key& o) const {
+      return std::tie(p.x, p.y, p.z, back) < std::tie(o.p.x, o.p.y, o.p.z, o.back);
+    }
+  };
+  std::map<Key, std::vector<Vec3>> planes;
+  std::vector<bool> back(n, false);
+  for (size_t v = 0; v < n; ++v)
+    for (uint32_t i : own[v]) {
+      back[v] = mesh.patches[i].backSide;
+      std::vector<Vec3>& normals = planes[{mesh.positions[v], back[v]}];
+      const Vec3 m = mesh.patches[i].normal;
+      if (std::none_of(normals.begin(), normals.end(), [&](const Vec3& o) { return dot(o, m) > 1 - 1e-9; }))
+        normals.push_back(m);
+    }
+  r.normal.resize(n);
+  r.approach.resize(n);
+  r.origin.resize(n);
+  r.start.assign(1, 0);
+  r.ownCount.resize(n);
+  for (size_t v = 0; v < n; ++v) {
+    r.approach[v] = normalize(toCentroids[v]);
+    // The planes meeting here, less the exact opposites of the vertex's own (a coincident surface
+    // of the other orientation, such as a shell modelled around a lamp box, is not in the way);
+    // where they allow no common free side, the vertex's own planes; else its normal.
+    std::vector<Vec3> ownPlanes, meeting;
+    for (uint32_t i : own[v]) ownPlanes.push_back(mesh.patches[i].normal);
+    // A vertex whose own patches lie in one plane receives with that plane's normal. Its shading
+    // normal may be tilted (a smooth-shaded cylinder's cap, subdivided: the normals interpolate
+    // toward the rim), but the surface there is flat, and a tilted hemisphere would reach below
+    // the face: into the solid on a furnace's inside, into the object under a sky.
+    r.normal[v] = mesh.normals[v];
+    if (!ownPlanes.empty() &&
+        std::all_of(ownPlanes.begin(), ownPlanes.end(), [&](const Vec3& m) { return dot(m, ownPlanes[0]) > 1 - 1e-9; }))
+      r.normal[v] = ownPlanes[0];
+    for (const Vec3& m : planes[{mesh.positions[v], back[v]}])
+      if (std::none_of(ownPlanes.begin(), ownPlanes.end(), [&](const Vec3& o) { return dot(o, m) < -1 + 1e-9; }))
+        meeting.push_back(m);
+    Vec3 m = r.normal[v];
+    if (!freeDirection(meeting, m) && !freeDirection(ownPlanes, m)) m = r.normal[v];
+    // Into the face as well, unless that would put the origin behind one of its own facets (a
+    // convex smooth vertex, whose facets fall away from the approach): the own facets are tested
+    // exactly (Sight), from their front.
+    Vec3 dir = m + r.approach[v];
+    for (uint32_t i : own[v])
+      if (dot(mesh.patches[i].normal, dir) < 0.05 * length(dir)) dir = m;
+    r.origin[v] = mesh.positions[v] + dir * offset;
+    r.ownCount[v] = uint32_t(own[v].size());
+    r.ignore.insert(r.ignore.end(), own[v].begin(), own[v].end());
+    for (uint32_t i : own[v])
+      if (mesh.patches[i].twin >= 0) r.ignore.push_back(uint32_t(mesh.patches[i].twin));
+    r.start.push_back(r.ignore.size());
+  }
+  return r;
 }
+
+// What a receiving point sees. Embree answers for every patch but the receiver's own and their
+// twins (`ignore`): a ray leaving a vertex grazes those, and in single precision it would hit them
+// by rounding. The own patches are instead tested here in double precision against the segment,
+// so a ray that really passes behind one of them (a grazing direction at a curved vertex, out
+// through the facet beside it) is still blocked.
+struct Sight {
+  const Occlusion& occlusion;
+  const PatchMesh& mesh;
+  Vec3 from;
+  std::span<const uint32_t> ignore;  // skipped by Embree
+  std::span<const uint32_t> own;     // tested exactly (empty for a patch's own centre)
+
+  bool visible(const Vec3& to) const { return !crossesOwn(to) && occlusion.visible(from, to, ignore); }
+
+  bool crossesOwn(const Vec3& to) const {
+    for (uint32_t k : own) {
+      const Patch& patch = mesh.patches[k];
+      const auto q = corners(mesh, patch);
+      const double da = dot(patch.normal, from - q[0]), db = dot(patch.normal, to - q[0]);
+      if (!((da > 0 && db < 0) || (da < 0 && db > 0))) continue;
+      const Vec3 x = from + (to - from) * (da / (da - db));
+      bool inside = true;
+      for (int e = 0; e < 4 && inside; ++e)
+        inside = dot(cross(q[(e + 1) % 4] - q[e], x - q[e]), patch.normal) >= 0;
+      if (inside) return true;
+    }
+    return false;
+  }
+};
 
 // Visibility between a receiver point and a source patch, as a factor per shape function.
 // Five rays first (centre and four inner points); if they agree the pair is fully visible or
 // fully hidden. Otherwise a 4×4 Gauss grid on the source, each ray weighted by the shape function
 // and the unoccluded kernel there, gives the visible fraction of each K_j.
-std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& from, const Vec3& n,
-                                      const std::array<Vec3, 4>& q, const Vec3& qNormal,
-                                      std::span<const uint32_t> ignore) {
-  const double lift = occlusion.epsilon() * 10;
+std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const std::array<Vec3, 4>& q,
+                                      const Vec3& qNormal) {
+  const Vec3& from = sight.from;
+  const double lift = sight.occlusion.epsilon() * 10;
   auto target = [&](double s, double t) { return pointOnPatch(q, s, t) + qNormal * lift; };
   int seen = 0;
-  for (const auto& st : kProbe) seen += occlusion.visible(from, target(st[0], st[1]), ignore);
+  for (const auto& st : kProbe) seen += sight.visible(target(st[0], st[1]));
   if (seen == 5) return {1, 1, 1, 1};
   if (seen == 0) return {0, 0, 0, 0};
   constexpr double kNode[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
@@ -180,7 +327,7 @@ std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& fr
       const Vec3 d = x - from;
       const double r2 = dot(d, d);
       const double kernel = std::max(0.0, dot(n, d)) * std::max(0.0, -dot(qNormal, d)) / (r2 * r2);
-      const bool v = occlusion.visible(from, target(kNode[a], kNode[b]), ignore);
+      const bool v = sight.visible(target(kNode[a], kNode[b]));
       const auto nj = shapeFunctions(kNode[a], kNode[b]);
       for (int j = 0; j < 4; ++j) {
         const double w = kWeight[a] * kWeight[b] * nj[j] * (kernel > 0 ? kernel : 1e-300);
@@ -195,21 +342,21 @@ std::array<double, 4> visibleFraction(const Occlusion& occlusion, const Vec3& fr
 
 // Bilinear method: row i holds K_ij for every vertex j, K_ij = Σ over patches of the kernel from
 // vertex i to the patch's shape function at j, times visibility.
-Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
+Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
+                            std::shared_ptr<const Closure> closure) {
   Transport t;
   t.rows = mesh.positions.size();
-  auto approach = std::make_shared<std::vector<Vec3>>(approachDirections(mesh));
-  auto around = std::make_shared<VertexPatches>(vertexPatches(mesh));
+  auto recv = std::make_shared<Receivers>(receivers(mesh, occlusion.epsilon() * 10));
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = options.kernelTolerance;
-  t.build = [&mesh, &occlusion, approach, around, kernelOptions](size_t i, Row& row) {
-    const Vec3 p = mesh.positions[i], nrm = mesh.normals[i], a = (*approach)[i];
-    std::vector<uint32_t> ignore(around->of(i).begin(), around->of(i).end());
+  t.build = [&mesh, &occlusion, recv, kernelOptions, closure](size_t i, Row& row) {
+    const Vec3 p = mesh.positions[i], nrm = recv->normal[i], a = recv->approach[i];
+    std::vector<uint32_t> ignore(recv->ignored(i).begin(), recv->ignored(i).end());
     ignore.push_back(0);  // the source patch, set below
-    // Rays leave from just inside the vertex's own surface: off the crease, above the plane.
-    const Vec3 origin = p + (nrm + a) * (occlusion.epsilon() * 10);
     for (size_t source = 0; source < mesh.patches.size(); ++source) {
       const Patch& patch = mesh.patches[source];
+      if (recv->isOwnTwin(i, uint32_t(source))) continue;  // a side never sees its own twin
+      if (closure->separates(i, source)) continue;
       const auto q = corners(mesh, patch);
       // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
       bool above = false;
@@ -220,7 +367,8 @@ Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
       // A crease contribution sits at the receiver itself: nothing can come between.
       const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
       ignore.back() = uint32_t(source);
-      const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, patch.normal, ignore);
+      const Sight sight{occlusion, mesh, recv->origin[i], ignore, recv->own(i)};
+      const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(sight, nrm, q, patch.normal);
       for (int j = 0; j < 4; ++j) {
         // A triangle's collapsed corner (v3 == v2) adds its shape function to v2.
         if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);
@@ -233,16 +381,17 @@ Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
 
 // Constant method: row k holds the patch-to-patch factors F_kl (exact near, Gauss far: see
 // constantPatchFactor), times a visible fraction from rays between the two patches.
-Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options) {
+Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
+                            std::shared_ptr<const Closure> closure) {
   Transport t;
   t.rows = mesh.patches.size();
   const double tolerance = 0.1 * options.kernelTolerance;
-  t.build = [&mesh, &occlusion, tolerance](size_t k, Row& row) {
+  t.build = [&mesh, &occlusion, tolerance, closure](size_t k, Row& row) {
     const Patch& pk = mesh.patches[k];
     const auto qk = corners(mesh, pk);
     const Vec3 lift = pk.normal * (occlusion.epsilon() * 10);
     for (size_t l = 0; l < mesh.patches.size(); ++l) {
-      if (l == k) continue;
+      if (l == k || closure->separates(k, l)) continue;
       const Patch& pl = mesh.patches[l];
       const auto ql = corners(mesh, pl);
       bool facing = false, front = false;
@@ -253,10 +402,13 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
       if (!(f > 0)) continue;
       // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
       // rays between inner points of both patches.
-      const uint32_t pair[2] = {uint32_t(k), uint32_t(l)};
+      // The two patches and the receiver's twin never block. (The source's twin does: a receiver
+      // sees the back of a double-sided surface only from the back.)
+      const uint32_t pair[3] = {uint32_t(k), uint32_t(l), pk.twin >= 0 ? uint32_t(pk.twin) : uint32_t(k)};
+      const uint32_t self[1] = {uint32_t(k)};
       auto ray = [&](int a, int b) {
-        return occlusion.visible(pointOnPatch(qk, kProbe[a][0], kProbe[a][1]) + lift,
-                                 pointOnPatch(ql, kProbe[b][0], kProbe[b][1]) + pl.normal * (occlusion.epsilon() * 10), pair);
+        const Sight sight{occlusion, mesh, pointOnPatch(qk, kProbe[a][0], kProbe[a][1]) + lift, pair, self};
+        return sight.visible(pointOnPatch(ql, kProbe[b][0], kProbe[b][1]) + pl.normal * (occlusion.epsilon() * 10));
       };
       int seen = 0;
       for (int b = 0; b < 5; ++b) seen += ray(0, b);
@@ -275,36 +427,41 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
 
 // The part of each receiver's projected solid angle that no surface covers, front or back: what a
 // uniform sky lights. Two-sided factors of every patch, times their visible fraction.
-std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion) {
-  const std::vector<Vec3> approach = approachDirections(mesh);
-  const VertexPatches around = vertexPatches(mesh);
+std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion,
+                                         const std::vector<bool>& enclosed) {
+  const Receivers recv = receivers(mesh, occlusion.epsilon() * 10);
   std::vector<double> sky(mesh.positions.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3 p = mesh.positions[i], nrm = mesh.normals[i];
-      const Vec3 origin = p + (nrm + approach[i]) * (occlusion.epsilon() * 10);
+      if (enclosed[i]) continue;  // covered whole: no sky
+      const Vec3 p = mesh.positions[i], nrm = recv.normal[i];
       double covered = 0;
-      std::vector<uint32_t> ignore(around.of(i).begin(), around.of(i).end());
+      std::vector<uint32_t> ignore(recv.ignored(i).begin(), recv.ignored(i).end());
       ignore.push_back(0);
-      const auto own = around.of(i);
+      const auto own = recv.own(i);
       for (size_t source = 0; source < mesh.patches.size(); ++source) {
         const Patch& patch = mesh.patches[source];
+        // Covering is geometry, not light: a double-sided surface covers once (its front patch
+        // stands for both sides), and the vertex's own twin covers nothing.
+        if (patch.backSide || recv.isOwnTwin(i, uint32_t(source))) continue;
         ignore.back() = uint32_t(source);
         auto q = corners(mesh, patch);
         Vec3 normal = patch.normal;
         // The vertex's own patches: on a concave surface they rise in front of it and cover what
         // their front-side limit says (as in K); on a convex one they fall away behind it and
         // cover nothing (their limit from behind is ill-conditioned, so it is not taken).
-        const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
+        const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end() ||
+                           (patch.twin >= 0 && std::find(own.begin(), own.end(), uint32_t(patch.twin)) != own.end());
         if (!isOwn && dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
           // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
           std::swap(q[1], q[3]);
           normal = -normal;
         }
-        const double f = pointPolygonFactorLimit(p, nrm, approach[i], q.data(), 4);
+        const double f = pointPolygonFactorLimit(p, nrm, recv.approach[i], q.data(), 4);
         if (!(f > 0)) continue;
         const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
-        const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(occlusion, origin, nrm, q, normal, ignore);
+        const Sight sight{occlusion, mesh, recv.origin[i], ignore, own};
+        const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(sight, nrm, q, normal);
         covered += f * (vis[0] + vis[1] + vis[2] + vis[3]) / 4;
       }
       sky[i] = std::max(0.0, 1 - covered);
@@ -313,16 +470,21 @@ std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion&
   return sky;
 }
 
-std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion) {
+std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion,
+                                         const std::vector<bool>& enclosed) {
   std::vector<double> sky(mesh.patches.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 8), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k != range.end(); ++k) {
+      if (enclosed[k]) continue;  // covered whole: no sky
       const Patch& pk = mesh.patches[k];
       const auto qk = corners(mesh, pk);
       const Vec3 from = pointOnPatch(qk, 0, 0) + pk.normal * (occlusion.epsilon() * 10);
       double covered = 0;
+      const uint32_t twin = pk.twin >= 0 ? uint32_t(pk.twin) : uint32_t(k);
       for (size_t l = 0; l < mesh.patches.size(); ++l) {
-        if (l == k) continue;
+        // Covering is geometry: a double-sided surface covers once (its front), and a patch's twin
+        // covers nothing of it.
+        if (l == k || l == twin || mesh.patches[l].backSide) continue;
         auto ql = corners(mesh, mesh.patches[l]);
         if (dot(mesh.patches[l].normal, pointOnPatch(qk, 0, 0) - ql[0]) < 0) {
           std::swap(ql[1], ql[3]);
@@ -330,8 +492,10 @@ std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion&
         const double f = constantPatchFactor(qk, ql);
         if (!(f > 0)) continue;
         int seen = 0;
-          const uint32_t pair[2] = {uint32_t(k), uint32_t(l)};
-        for (const auto& b : kProbe) seen += occlusion.visible(from, pointOnPatch(ql, b[0], b[1]), pair);
+        const uint32_t ignore[3] = {uint32_t(k), uint32_t(l), twin};
+        const uint32_t self[1] = {uint32_t(k)};
+        const Sight sight{occlusion, mesh, from, ignore, self};
+        for (const auto& b : kProbe) seen += sight.visible(pointOnPatch(ql, b[0], b[1]));
         covered += f * seen / 5.0;
       }
       sky[k] = std::max(0.0, 1 - covered);
@@ -382,8 +546,7 @@ void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::v
 // Irradiance at x (normal n) from the punctual lights, shadowed (KHR_lights_punctual: intensity
 // in candela for point and spot lights, illuminance in lux for directional ones; the spec's spot
 // cone and range falloff).
-Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Occlusion& occlusion, const Vec3& origin,
-                      const Vec3& x, const Vec3& n, std::span<const uint32_t> ignore) {
+Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Sight& sight, const Vec3& x, const Vec3& n) {
   Vec3 e{};
   for (const PunctualLight& light : lights) {
     Vec3 toLight;
@@ -409,8 +572,10 @@ Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Occlusion&
     }
     const double cosine = dot(n, toLight);
     if (!(cosine > 0) || !(falloff > 0)) continue;
-    const Vec3 target = light.type == PunctualLight::Type::kDirectional ? origin + toLight * (10 * occlusion.sceneSize()) : light.position;
-    if (!occlusion.visible(origin, target, ignore)) continue;
+    const Vec3 target = light.type == PunctualLight::Type::kDirectional
+                            ? sight.from + toLight * (10 * sight.occlusion.sceneSize())
+                            : light.position;
+    if (!sight.visible(target)) continue;
     e += light.intensity * (cosine * falloff);
   }
   return e;
@@ -420,13 +585,11 @@ Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Occlusion&
 std::vector<Vec3> bilinearDirectLight(const Scene& scene, const PatchMesh& mesh, const Occlusion& occlusion) {
   std::vector<Vec3> e(mesh.positions.size());
   if (scene.lights.empty()) return e;
-  const std::vector<Vec3> approach = approachDirections(mesh);
-  const VertexPatches around = vertexPatches(mesh);
+  const Receivers recv = receivers(mesh, occlusion.epsilon() * 10);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, e.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t i = range.begin(); i != range.end(); ++i) {
-      const Vec3 origin = mesh.positions[i] + (mesh.normals[i] + approach[i]) * (occlusion.epsilon() * 10);
-      e[i] = directIrradiance(scene.lights, occlusion, origin, mesh.positions[i], mesh.normals[i], around.of(i));
-    }
+    for (size_t i = range.begin(); i != range.end(); ++i)
+      e[i] = directIrradiance(scene.lights, Sight{occlusion, mesh, recv.origin[i], recv.ignored(i), recv.own(i)},
+                              mesh.positions[i], recv.normal[i]);
   });
   return e;
 }
@@ -450,8 +613,8 @@ std::vector<Vec3> constantDirectLight(const Scene& scene, const PatchMesh& mesh,
           const Vec3 dt = (q[3] - q[0]) * (1 - s) / 4 + (q[2] - q[1]) * (1 + s) / 4;
           const double w = kWeight[a] * kWeight[b] * length(cross(ds, dt));
           const Vec3 x = pointOnPatch(q, s, t);
-          sum += directIrradiance(scene.lights, occlusion, x + patch.normal * (occlusion.epsilon() * 10), x,
-                                  patch.normal, self) * w;
+          const Sight sight{occlusion, mesh, x + patch.normal * (occlusion.epsilon() * 10), self, self};
+          sum += directIrradiance(scene.lights, sight, x, patch.normal) * w;
           area += w;
         }
       e[k] = area > 0 ? sum / area : Vec3{};
@@ -511,22 +674,32 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
   std::vector<Vec3> gathered;
+  const std::vector<bool> enclosed = enclosedPatches(mesh);
   if (options.method == Method::kBilinear) {
     std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
     for (size_t v = 0; v < mesh.positions.size(); ++v) {
       emission[v] = mesh.vertexEmission[v];
       reflectance[v] = mesh.vertexReflectance[v];
     }
-    const std::vector<Vec3> source =
-        withDirectLight(withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion); }),
-                        reflectance, bilinearDirectLight(scene, mesh, occlusion));
+    auto closure = std::make_shared<Closure>();
+    closure->patches = enclosed;
+    closure->rows.assign(mesh.positions.size(), false);
+    for (size_t p = 0; p < mesh.patches.size(); ++p)
+      if (enclosed[p])
+        for (uint32_t v : mesh.patches[p].v) closure->rows[v] = true;
+    const std::vector<Vec3> source = withDirectLight(
+        withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion, closure->rows); }),
+        reflectance, bilinearDirectLight(scene, mesh, occlusion));
     Transport K;
     if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
-      K = bilinearTransport(mesh, occlusion, options);
+      K = bilinearTransport(mesh, occlusion, options, closure);
+      applyClosure(K, closure);
       storeIfItFits(K, options, solution.matrixEntries);
       solution.matrixFree = !K.stored();
     }
     iterate(K, source, reflectance, options, solution.vertexRadiance, gathered, solution);
+    solution.enclosedUnknowns = size_t(std::count(closure->rows.begin(), closure->rows.end(), true));
+    solution.closureCorrection = closure->largest.load();
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
       const auto a = shapeFunctionAreas(corners(mesh, patch));
@@ -552,16 +725,22 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       emission[p] = mesh.patches[p].emission;
       reflectance[p] = mesh.patches[p].reflectance;
     }
-    const std::vector<Vec3> source =
-        withDirectLight(withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion); }),
-                        reflectance, constantDirectLight(scene, mesh, occlusion));
+    auto closure = std::make_shared<Closure>();
+    closure->patches = enclosed;
+    closure->rows = enclosed;
+    const std::vector<Vec3> source = withDirectLight(
+        withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion, closure->rows); }),
+        reflectance, constantDirectLight(scene, mesh, occlusion));
     Transport F;
     if (anyLight(source)) {
-      F = constantTransport(mesh, occlusion, options);
+      F = constantTransport(mesh, occlusion, options, closure);
+      applyClosure(F, closure);
       storeIfItFits(F, options, solution.matrixEntries);
       solution.matrixFree = !F.stored();
     }
     iterate(F, source, reflectance, options, solution.patchRadiance, gathered, solution);
+    solution.enclosedUnknowns = size_t(std::count(closure->rows.begin(), closure->rows.end(), true));
+    solution.closureCorrection = closure->largest.load();
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       const Vec3& rho = reflectance[p];
       solution.emittedPower += kPi * mesh.patches[p].area * (emission[p].x + emission[p].y + emission[p].z) / 3;

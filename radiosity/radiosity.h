@@ -39,6 +39,10 @@ struct Solution {
   bool interreflection = false;  // false: emission only (L = L⁰)
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
   bool matrixFree = false;
+  // Closure: unknowns inside a closed surface (their total factor is exactly 1), and the largest
+  // correction their rows needed, |Σ_j K_ij − 1| before scaling (partial-visibility estimates).
+  size_t enclosedUnknowns = 0;
+  double closureCorrection = 0;
   // Power balance in radiance × area × π units, averaged over the three channels: what the
   // emitters send out and what the surfaces absorb of it and its reflections (sky light is not
   // counted). In a closed scene they agree; the gap is the light that leaves an open scene (plus

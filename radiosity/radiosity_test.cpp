@@ -455,3 +455,85 @@ TEST(Cutout, TexturedAlphaMaskLetsLightThroughItsClearHalf) {
 }
 
 }  // namespace
+
+namespace {
+
+// One planar quad, corners counter-clockwise seen from its front.
+Primitive quadPrimitive(const std::array<Vec3, 4>& c, int material) {
+  Primitive p;
+  p.material = material;
+  p.hasNormals = true;
+  const Vec3 n = normalize(cross(c[1] - c[0], c[2] - c[0]));
+  for (const Vec3& x : c) {
+    p.positions.push_back(x);
+    p.normals.push_back(n);
+  }
+  p.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return p;
+}
+
+// Point-to-parallel-rectangle factor for a receiver facing the rectangle at distance h, whose foot
+// point has the rectangle's corner at signed offsets (a, b): the classic corner formula, odd in a
+// and in b, so any foot point follows by inclusion–exclusion.
+double cornerFactor(double a, double b, double h) {
+  const double pi = 3.14159265358979323846;
+  const double ra = std::sqrt(a * a + h * h), rb = std::sqrt(b * b + h * h);
+  return (a / ra * std::atan(b / ra) + b / rb * std::atan(a / rb)) / (2 * pi);
+}
+
+double parallelRectangleFactor(double x, double z, double x0, double x1, double z0, double z1, double h) {
+  return cornerFactor(x1 - x, z1 - z, h) - cornerFactor(x0 - x, z1 - z, h) - cornerFactor(x1 - x, z0 - z, h) +
+         cornerFactor(x0 - x, z0 - z, h);
+}
+
+TEST(DoubleSided, AnOpenPlateBetweenTwoEmittersIsExactOnBothSides) {
+  // A double-sided plate (ρ 0.5) between two black emitters of the same size, L⁰ 1 above and 3
+  // below, one unit away. Each side sees only its own emitter and nothing reflects back, so
+  // L = ρ L⁰ F(vertex → emitter), F the closed-form point-to-rectangle factor: the same F on both
+  // sides, three times the light below. A side that saw or shadowed its twin, or gathered the
+  // other side's light, would break it.
+  Scene scene;
+  scene.materials = {material("plate", 0.5, 0, true), material("above", 0, 1), material("below", 0, 3)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}}, 0));   // faces +y
+  scene.primitives.push_back(quadPrimitive({Vec3{-1, 1, -1}, {1, 1, -1}, {1, 1, 1}, {-1, 1, 1}}, 1));   // faces −y
+  scene.primitives.push_back(quadPrimitive({Vec3{-1, -1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, -1, -1}}, 2));  // faces +y
+  // Turned to an arbitrary orientation and rounded to float, as a glTF file holds it: the plate's
+  // two sides are then coplanar only to rounding, not to the bit.
+  const Vec3 ax = normalize(Vec3{0.3, 0.8, -0.5});
+  const double angle = 0.7;
+  auto rotate = [&](const Vec3& v) {  // Rodrigues
+    return v * std::cos(angle) + cross(ax, v) * std::sin(angle) + ax * (dot(ax, v) * (1 - std::cos(angle)));
+  };
+  auto unrotate = [&](const Vec3& v) {
+    return v * std::cos(angle) - cross(ax, v) * std::sin(angle) + ax * (dot(ax, v) * (1 - std::cos(angle)));
+  };
+  for (int p = 0; p < 3; ++p) {
+    scene.primitives[p].primitive = p;
+    for (Vec3& x : scene.primitives[p].positions) {
+      x = rotate(x);
+      x = {float(x.x), float(x.y), float(x.z)};
+    }
+    for (Vec3& m : scene.primitives[p].normals) m = rotate(m);
+  }
+  for (int n : {1, 3}) {
+    TessellateOptions t;
+    t.subdivide = n;
+    const PatchMesh mesh = tessellate(scene, t);
+    RadiosityOptions o;
+    o.relativeResidual = 1e-12;
+    const Solution s = solveRadiosity(scene, mesh, o);
+    int top = 0, bottom = 0;
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      const Vec3 x = unrotate(mesh.positions[v]);
+      if (mesh.vertexMaterial[v] != 0) continue;
+      const double f = parallelRectangleFactor(x.x, x.z, -1, 1, -1, 1, 1);
+      const bool up = unrotate(mesh.normals[v]).y > 0;
+      EXPECT_NEAR(s.vertexRadiance[v].x, 0.5 * (up ? 1 : 3) * f, 1e-6) << "N " << n << (up ? " top " : " bottom ") << x.x << " " << x.z;
+      (up ? top : bottom)++;
+    }
+    EXPECT_EQ(top, (n + 1) * (n + 1));
+    EXPECT_EQ(bottom, (n + 1) * (n + 1));
+  }
+}
+
+}  // namespace

@@ -637,7 +637,9 @@ void tessellateBezier(const Scene& scene, const TessellateOptions& options, Weld
 }
 
 // A double-sided material lights both sides: every patch gets a mirrored twin on its own vertices
-// (normals reversed, so they never weld with the front). The exporter writes the front side.
+// (normals reversed, so they never weld with the front). Each side is a surface of its own: the
+// solver keeps a side from seeing or shadowing its twin (Patch::twin). The exporter writes the
+// front side.
 void addBackSides(PatchMesh& mesh, Welder& welder, size_t firstPatch) {
   const size_t end = mesh.patches.size();
   for (size_t i = firstPatch; i < end; ++i) {
@@ -648,6 +650,8 @@ void addBackSides(PatchMesh& mesh, Welder& welder, size_t firstPatch) {
     back.v = back.v[2] == back.v[3] ? std::array<uint32_t, 4>{v[0], v[2], v[1], v[1]} : std::array<uint32_t, 4>{v[0], v[3], v[2], v[1]};
     back.normal = -back.normal;
     back.backSide = true;
+    back.twin = int(i);
+    mesh.patches[i].twin = int(mesh.patches.size());
     mesh.patches.push_back(back);
   }
 }

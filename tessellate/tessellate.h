@@ -22,6 +22,7 @@ struct Patch {
   Vec3 normal;                // unit geometric normal (front side)
   double area = 0;
   bool backSide = false;      // the mirrored twin of a double-sided patch
+  int twin = -1;              // double-sided: the coincident patch of the other side (front ↔ back)
   // ρ and L⁰ of this patch: the material's factors times its textures averaged over the patch.
   Vec3 reflectance, emission;
   bool shaded = false;        // set from textures (else the material's values are filled in)

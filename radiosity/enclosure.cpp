@@ -1,0 +1,133 @@
+#include "radiosity/enclosure.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <tuple>
+
+namespace radbake {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct PointKey {
+  double x, y, z;
+  bool operator<(const PointKey& o) const { return std::tie(x, y, z) < std::tie(o.x, o.y, o.z); }
+};
+
+struct EdgeKey {
+  PointKey a, b;  // a < b
+  bool back;
+  bool operator<(const EdgeKey& o) const { return std::tie(a, b, back) < std::tie(o.a, o.b, o.back); }
+};
+
+struct EdgeUse {
+  uint32_t patch;
+  bool forward;  // runs from a to b
+};
+
+size_t find(std::vector<size_t>& parent, size_t i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+// The corners a patch actually has (a triangle's repeated corner dropped).
+int cornerCount(const Patch& p) { return p.v[3] == p.v[2] ? 3 : 4; }
+
+// Generalized winding number of the closed surface `patches` at x (Van Oosterom & Strackee's
+// solid angle per triangle): ±1 inside, 0 outside, ±½ on it; the sign follows the orientation.
+double windingNumber(const PatchMesh& mesh, const std::vector<uint32_t>& patches, const Vec3& x) {
+  double sum = 0;
+  for (uint32_t k : patches) {
+    const Patch& p = mesh.patches[k];
+    const int n = cornerCount(p);
+    for (int t = 1; t + 1 < n; ++t) {
+      const Vec3 a = mesh.positions[p.v[0]] - x, b = mesh.positions[p.v[t]] - x, c = mesh.positions[p.v[t + 1]] - x;
+      const double la = length(a), lb = length(b), lc = length(c);
+      const double num = dot(a, cross(b, c));
+      if (num == 0) continue;  // x in the triangle's plane: on it (ambiguous, ±2π) or seeing it edge-on (0)
+      const double den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
+      sum += 2 * std::atan2(num, den);
+    }
+  }
+  return sum / (4 * kPi);
+}
+
+}  // namespace
+
+std::vector<bool> enclosedPatches(const PatchMesh& mesh) {
+  const size_t n = mesh.patches.size();
+  std::vector<bool> enclosed(n, false);
+  if (n == 0) return enclosed;
+  auto key = [&](uint32_t v) {
+    const Vec3& p = mesh.positions[v];
+    return PointKey{p.x, p.y, p.z};
+  };
+  std::map<EdgeKey, std::vector<EdgeUse>> edges;
+  for (size_t i = 0; i < n; ++i) {
+    const Patch& p = mesh.patches[i];
+    const int c = cornerCount(p);
+    for (int k = 0; k < c; ++k) {
+      const PointKey a = key(p.v[k]), b = key(p.v[(k + 1) % c]);
+      if (!(a < b) && !(b < a)) continue;
+      const bool forward = a < b;
+      edges[{forward ? a : b, forward ? b : a, p.backSide}].push_back({uint32_t(i), forward});
+    }
+  }
+  // Components over shared edges; a component is closed when each of its edges has exactly two
+  // uses running in opposite directions.
+  std::vector<size_t> parent(n);
+  std::iota(parent.begin(), parent.end(), size_t(0));
+  std::vector<bool> open(n, false);
+  for (const auto& [edge, uses] : edges) {
+    for (size_t u = 1; u < uses.size(); ++u) parent[find(parent, uses[u].patch)] = find(parent, uses[0].patch);
+    if (uses.size() != 2 || uses[0].forward == uses[1].forward)
+      for (const EdgeUse& u : uses) open[u.patch] = true;
+  }
+  std::map<size_t, std::vector<uint32_t>> components;
+  for (size_t i = 0; i < n; ++i) components[find(parent, i)].push_back(uint32_t(i));
+  std::vector<const std::vector<uint32_t>*> inwardClosed;
+  std::vector<const std::vector<uint32_t>*> others;
+  for (const auto& [root, patches] : components) {
+    const bool closed = std::none_of(patches.begin(), patches.end(), [&](uint32_t k) { return open[k]; });
+    double volume = 0;  // six times the signed volume: positive when the fronts face outward
+    if (closed)
+      for (uint32_t k : patches) {
+        const Patch& p = mesh.patches[k];
+        for (int t = 1; t + 1 < cornerCount(p); ++t)
+          volume += dot(mesh.positions[p.v[0]], cross(mesh.positions[p.v[t]], mesh.positions[p.v[t + 1]]));
+      }
+    if (closed && volume < 0) {
+      inwardClosed.push_back(&patches);
+      for (uint32_t k : patches) enclosed[k] = true;
+    } else {
+      others.push_back(&patches);
+    }
+  }
+  // Anything else inside an inward closed surface (objects in a closed room). A component is
+  // tested at the centres of its patches until one is clearly inside or outside: a block standing
+  // on the floor has a face lying on it, where the winding number is ½.
+  for (const auto* component : others) {
+    bool inside = false;
+    const int twin = mesh.patches[component->front()].twin;
+    for (const auto* room : inwardClosed) {
+      // A double-sided surface's two sides coincide: neither is inside the other.
+      if (twin >= 0 && std::find(room->begin(), room->end(), uint32_t(twin)) != room->end()) continue;
+      for (size_t t = 0; t < std::min<size_t>(component->size(), 16) && !inside; ++t) {
+        const Patch& p = mesh.patches[(*component)[t * component->size() / std::min<size_t>(component->size(), 16)]];
+        Vec3 centre{};
+        for (int k = 0; k < cornerCount(p); ++k) centre += mesh.positions[p.v[k]] / double(cornerCount(p));
+        const double w = std::abs(windingNumber(mesh, *room, centre));
+        if (w > 0.75) inside = true;
+        if (w < 0.25) break;
+      }
+      if (inside) break;
+    }
+    if (inside)
+      for (uint32_t k : *component) enclosed[k] = true;
+  }
+  return enclosed;
+}
+
+}  // namespace radbake
