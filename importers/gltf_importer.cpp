@@ -18,6 +18,7 @@
 #include "importers/importers.h"
 #include "importers/bpt_importer.h"
 #include "importers/draco.h"
+#include "importers/extensions.h"
 #include "importers/texture.h"
 
 namespace radbake {
@@ -296,12 +297,14 @@ Vec3 transformNormal(const NormalMatrix& n, const Vec3& v) {
                         c[6] * v.x + c[7] * v.y + c[8] * v.z});
 }
 
-std::string extensionsNotSupported(const std::vector<std::string>& required) {
-  static const std::set<std::string> kSupportedRequired = {
-      "KHR_mesh_quantization", "KHR_texture_transform", "KHR_materials_emissive_strength",
-      "KHR_materials_unlit", "KHR_materials_pbrSpecularGlossiness", "KHR_draco_mesh_compression"};
-  for (const std::string& ext : required)
-    if (!kSupportedRequired.count(ext)) return ext;
+// The first extension the file cannot be baked with: one it requires that radbake cannot honour
+// (importers/extensions.cpp), or one radbake cannot load even when it is only used. "" if none.
+std::string extensionRefused(const JsonSummary& summary) {
+  for (const std::string& ext : summary.extensionsRequired)
+    if (!acceptedWhenRequired(ext)) return "requires extension " + ext + ", which radbake does not support";
+  for (const std::string& ext : summary.extensionsUsed)
+    if (const KnownExtension* known = findExtension(ext); known && known->use == ExtensionUse::kRefused)
+      return "uses extension " + ext + ", which radbake cannot load: " + known->note;
   return "";
 }
 
@@ -722,14 +725,17 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
   }
   if (std::string problem = checkGltfSchema(jsonText); !problem.empty()) ctx.invalid(problem);
   const JsonSummary summary = summarizeGltfJson(jsonText);
-  if (std::string ext = extensionsNotSupported(summary.extensionsRequired); !ext.empty()) {
-    const std::string message = "requires extension " + ext + ", which radbake does not support";
+  if (std::string message = extensionRefused(summary); !message.empty()) {
     if (options.requireSupportedExtensions) ctx.fail(ExitCode::kUnsupported, message);
     ctx.warn(message + "; its geometry is not read");
     scene.counts = summary.counts;
     scene.extensionsUsed = summary.extensionsUsed;
     return scene;
   }
+
+  for (const std::string& ext : summary.extensionsUsed)
+    if (const KnownExtension* known = findExtension(ext); known && known->use == ExtensionUse::kApproximated)
+      ctx.warn(ext + " is approximated: " + known->note);
 
   std::vector<unsigned char> glb;  // the GLB again, when its JSON had to change for tinygltf
   if (std::string fixed = withoutDracoIndices(jsonText); !fixed.empty()) {

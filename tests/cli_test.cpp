@@ -18,6 +18,7 @@
 #include <tuple>
 
 #include "exporters/exporters.h"
+#include "importers/extensions.h"
 #include "radiosity/radiosity.h"
 #include "plugin/cli/cli.h"
 
@@ -1366,6 +1367,233 @@ TEST(LightmapOutput, AFailedWriteLeavesNothingAndBadNamesAreUsageErrors) {
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("64x64 allowed"), std::string::npos) << r.err;
   for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
+}
+
+
+// ---- Extensions (importers/extensions.cpp; README's extension table) ----
+
+// The lit plate of the Lights tests (10 cd, 2 m above the centre of a ρ 0.5 plate) as JSON, to add
+// extensions to.
+json litPlateJson() { return json::parse(litPlateGltf(R"({"type":"point","intensity":10})", "0,2,0")); }
+
+struct ExtensionBake {
+  RunResult run;
+  fs::path output;  // a .gltf, to read back as JSON
+  json report;      // --report, when the bake succeeded
+  std::vector<double> red;  // the probed red radiance at the plate's centre and corner (1, 1)
+};
+
+ExtensionBake bakeWithExtensions(const json& doc, const std::string& name) {
+  const fs::path dir = tempDir(), in = dir / (name + ".gltf"), probes = dir / (name + "_probes.csv");
+  const fs::path values = dir / (name + "_values.csv"), report = dir / (name + "_report.json");
+  ExtensionBake bake;
+  bake.output = dir / (name + "_out.gltf");
+  fs::remove(bake.output);
+  std::ofstream(in) << doc.dump();
+  std::ofstream(probes) << "x,y,z,nx,ny,nz\n0,0,0,0,1,0\n1,0,1,0,1,0\n";
+  bake.run = radbake({"bake", in.string(), "-o", bake.output.string(), "--subdivide", "2", "--probe", probes.string(),
+                      "--probe-out", values.string(), "--report", report.string(), "--progress", "none"});
+  if (bake.run.code == 0) {
+    bake.report = json::parse(std::ifstream(report));
+    bake.red = probeRed(values);
+  }
+  return bake;
+}
+
+json readJson(const fs::path& path) { return json::parse(std::ifstream(path)); }
+
+// A refusal: exit 3, exactly `message` after "error: NAME.gltf: ", and no output.
+void expectRefused(const ExtensionBake& bake, const std::string& name, const std::string& message) {
+  EXPECT_EQ(bake.run.code, 3) << bake.run.err;
+  EXPECT_EQ(bake.run.err, "error: " + name + ".gltf: " + message + "\n");
+  EXPECT_FALSE(fs::exists(bake.output));
+}
+
+// The closed form at the plate's centre and at its corner (1, 0, 1): L = ρ I cosθ / (π r²).
+void expectLitPlate(const ExtensionBake& bake) {
+  ASSERT_EQ(bake.red.size(), 2u);
+  EXPECT_NEAR(bake.red[0], 0.5 * 10 / (kPi * 4), 1e-12);
+  EXPECT_NEAR(bake.red[1], 0.5 * 10 * (2 / std::sqrt(6.0)) / (kPi * 6), 1e-12);
+}
+
+std::vector<std::string> warningsOf(const ExtensionBake& bake) { return bake.report["warnings"].get<std::vector<std::string>>(); }
+
+TEST(Extensions, RequiredLightsPunctualBakesItsLight) {
+  // Blender puts KHR_lights_punctual in extensionsRequired when it exports lights.
+  json doc = litPlateJson();
+  doc["extensionsRequired"] = {"KHR_lights_punctual"};
+  const ExtensionBake bake = bakeWithExtensions(doc, "required_light");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(readJson(bake.output)["extensionsRequired"], json({"KHR_lights_punctual"}));
+}
+
+TEST(Extensions, KeptExtensionIsAcceptedWhenRequiredAndWrittenBack) {
+  // KHR_xmp_json_ld (metadata), even required: baked as without it, written back as it was.
+  json doc = litPlateJson();
+  const json packets = json::parse(R"({"packets":[{"@context":{"dc":"http://purl.org/dc/elements/1.1/"},"dc:creator":["radbake test"]}]})");
+  doc["extensions"]["KHR_xmp_json_ld"] = packets;
+  doc["asset"]["extensions"]["KHR_xmp_json_ld"] = {{"packet", 0}};
+  doc["extensionsUsed"].push_back("KHR_xmp_json_ld");
+  doc["extensionsRequired"] = {"KHR_xmp_json_ld"};
+  const ExtensionBake bake = bakeWithExtensions(doc, "kept_xmp");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(warningsOf(bake), std::vector<std::string>{});
+  const json out = readJson(bake.output);
+  EXPECT_EQ(out["extensions"]["KHR_xmp_json_ld"], packets);
+  EXPECT_EQ(out["asset"]["extensions"]["KHR_xmp_json_ld"]["packet"], 0);
+  EXPECT_EQ(out["extensionsRequired"], json({"KHR_xmp_json_ld"}));
+  if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed";
+  std::string log;
+  EXPECT_EQ(runValidator({bake.output}, &log), 0) << log;
+}
+
+TEST(Extensions, ApproximatedExtensionWarnsIsKeptAndIsRefusedWhenRequired) {
+  // KHR_materials_clearcoat on the plate: the coat is left out of the bake (the closed form of the
+  // bare plate still holds), said once as a warning, and the material keeps its extension.
+  json doc = litPlateJson();
+  const json coat = {{"clearcoatFactor", 1.0}, {"clearcoatRoughnessFactor", 0.1}};
+  doc["materials"][0]["extensions"]["KHR_materials_clearcoat"] = coat;
+  doc["extensionsUsed"].push_back("KHR_materials_clearcoat");
+  ExtensionBake bake = bakeWithExtensions(doc, "clearcoat");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(warningsOf(bake), std::vector<std::string>{"clearcoat.gltf: KHR_materials_clearcoat is approximated: the coat "
+                                                       "is left out; the base layer's diffuse color is baked"});
+  EXPECT_NE(bake.run.err.find("warning: clearcoat.gltf: KHR_materials_clearcoat is approximated"), std::string::npos);
+  const json out = readJson(bake.output);
+  EXPECT_EQ(out["materials"][0]["extensions"]["KHR_materials_clearcoat"], coat);
+  EXPECT_NE(std::find(out["extensionsUsed"].begin(), out["extensionsUsed"].end(), "KHR_materials_clearcoat"), out["extensionsUsed"].end());
+  if (validatorAvailable()) {
+    std::string log;
+    EXPECT_EQ(runValidator({bake.output}, &log), 0) << log;
+  }
+  // Required, radbake cannot honour it.
+  doc["extensionsRequired"] = {"KHR_materials_clearcoat"};
+  expectRefused(bakeWithExtensions(doc, "clearcoat_required"), "clearcoat_required",
+                "requires extension KHR_materials_clearcoat, which radbake does not support");
+}
+
+TEST(Extensions, GpuInstancingWarnsWhenUsedAndIsRefusedWhenRequired) {
+  // EXT_mesh_gpu_instancing: the plate's node draws it at two places. radbake bakes the node's own
+  // placement only (the instances are not in the bake): a warning; required, exit 3.
+  json doc = litPlateJson();
+  const std::vector<float> offsets{0, 0, 0, 3, 0, 0};
+  doc["buffers"].push_back({{"byteLength", 24}, {"uri", "data:application/octet-stream;base64," + base64(offsets)}});
+  doc["bufferViews"].push_back({{"buffer", 1}, {"byteLength", 24}});
+  doc["accessors"].push_back({{"bufferView", 1}, {"componentType", 5126}, {"count", 2}, {"type", "VEC3"}});
+  doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"] = {{"attributes", {{"TRANSLATION", 2}}}};
+  doc["extensionsUsed"].push_back("EXT_mesh_gpu_instancing");
+  const ExtensionBake bake = bakeWithExtensions(doc, "instanced");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  ASSERT_EQ(warningsOf(bake).size(), 1u);
+  EXPECT_EQ(warningsOf(bake)[0].rfind("instanced.gltf: EXT_mesh_gpu_instancing is approximated: the instances are left out", 0), 0u)
+      << warningsOf(bake)[0];
+  EXPECT_EQ(readJson(bake.output)["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"], 2);
+  doc["extensionsRequired"] = {"EXT_mesh_gpu_instancing"};
+  expectRefused(bakeWithExtensions(doc, "instanced_required"), "instanced_required",
+                "requires extension EXT_mesh_gpu_instancing, which radbake does not support");
+}
+
+TEST(Extensions, Ktx2TextureBakesItsPngFallbackAndIsRefusedWhenRequired) {
+  // KHR_texture_basisu: radbake does not decode KTX2, but a texture that only uses the extension
+  // also names a PNG source, and that is what a diffuse bake needs. The black/white texture of the
+  // Textures tests gives the same answers as without the extension; the KTX2 image is kept.
+  json doc = json::parse(plateGltf(R"({"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}})",
+                                   "TEXCOORD_0", {0, 1, 1, 1, 1, 0, 0, 0}, tinyPng(2, 1, {255, 255, 255, 0, 0, 0})));
+  const fs::path dir = tempDir();
+  const std::string ktx2("\xABKTX 20\xBB\r\n\x1A\n", 12);  // the KTX2 identifier; the image is never decoded
+  std::ofstream(dir / "plate.ktx2", std::ios::binary) << ktx2;
+  doc["images"].push_back({{"uri", "plate.ktx2"}, {"mimeType", "image/ktx2"}});
+  doc["textures"][0]["extensions"]["KHR_texture_basisu"] = {{"source", 1}};
+  doc["extensionsUsed"].push_back("KHR_texture_basisu");
+  const fs::path in = dir / "basisu.gltf", out = dir / "basisu_out.gltf", probes = dir / "basisu.csv", values = dir / "basisu_values.csv";
+  std::ofstream(in) << doc.dump();
+  std::ofstream(probes) << "x,y,z,nx,ny,nz\n-0.5,0,0.3,0,1,0\n0.5,0,-0.3,0,1,0\n";
+  const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--method", "constant", "--subdivide", "2",
+                               "--probe", probes.string(), "--probe-out", values.string(), "--progress", "none"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "");  // no warning: the fallback is exact
+  const auto red = probeRed(values);
+  ASSERT_EQ(red.size(), 2u);
+  EXPECT_NEAR(red[0], 0.75 * 3 / kPi, 1e-9);
+  EXPECT_NEAR(red[1], 0.25 * 3 / kPi, 1e-9);
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  ASSERT_EQ(m.images.size(), 2u);
+  EXPECT_EQ(std::string(m.images[1].image.begin(), m.images[1].image.end()), ktx2);
+  EXPECT_EQ(m.images[1].mimeType, "image/ktx2");
+  EXPECT_EQ(m.textures[0].extensions.at("KHR_texture_basisu").Get("source").GetNumberAsInt(), 1);
+
+  doc["extensionsRequired"] = {"KHR_texture_basisu"};
+  const fs::path required = dir / "basisu_required.gltf";
+  std::ofstream(required) << doc.dump();
+  const fs::path none = dir / "basisu_required_out.glb";
+  const RunResult refused = radbake({"bake", required.string(), "-o", none.string()});
+  EXPECT_EQ(refused.code, 3);
+  EXPECT_EQ(refused.err, "error: basisu_required.gltf: requires extension KHR_texture_basisu, which radbake does not support\n");
+  EXPECT_FALSE(fs::exists(none));
+}
+
+TEST(Extensions, AnimationPointerIsRefusedEvenWhenOnlyUsed) {
+  // KHR_animation_pointer channels name no node; Debian's tinygltf 2.7 cannot parse them.
+  json doc = litPlateJson();
+  const std::vector<float> keys{0, 1, 10, 20};
+  doc["buffers"].push_back({{"byteLength", 16}, {"uri", "data:application/octet-stream;base64," + base64(keys)}});
+  doc["bufferViews"].push_back({{"buffer", 1}, {"byteLength", 16}});
+  doc["accessors"].push_back({{"bufferView", 2}, {"componentType", 5126}, {"count", 2}, {"type", "SCALAR"}, {"min", {0}}, {"max", {1}}});
+  doc["accessors"].push_back({{"bufferView", 2}, {"byteOffset", 8}, {"componentType", 5126}, {"count", 2}, {"type", "SCALAR"}});
+  doc["animations"] = json::parse(R"([{"samplers":[{"input":2,"output":3}],"channels":[{"sampler":0,"target":{"path":"pointer",
+      "extensions":{"KHR_animation_pointer":{"pointer":"/extensions/KHR_lights_punctual/lights/0/intensity"}}}}]}])");
+  doc["extensionsUsed"].push_back("KHR_animation_pointer");
+  expectRefused(bakeWithExtensions(doc, "pointer"), "pointer",
+                "uses extension KHR_animation_pointer, which radbake cannot load: its animation channels have no "
+                "target node, which tinygltf 2.7 cannot read");
+}
+
+TEST(Extensions, UnknownExtensionIsKeptWhenUsedAndRefusedWhenRequired) {
+  json doc = litPlateJson();
+  doc["materials"][0]["extensions"]["EXT_radbake_test"] = {{"answer", 42}};
+  doc["extensionsUsed"].push_back("EXT_radbake_test");
+  const ExtensionBake bake = bakeWithExtensions(doc, "unknown");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(warningsOf(bake), std::vector<std::string>{});
+  EXPECT_EQ(readJson(bake.output)["materials"][0]["extensions"]["EXT_radbake_test"]["answer"], 42);
+  doc["extensionsRequired"] = {"EXT_radbake_test"};
+  expectRefused(bakeWithExtensions(doc, "unknown_required"), "unknown_required",
+                "requires extension EXT_radbake_test, which radbake does not support");
+}
+
+
+TEST(Extensions, ReadmeTableIsTheCodesTable) {
+  // README.md's "glTF extensions" table, row by row: name, class, required, note.
+  std::ifstream readme(fs::path(RADBAKE_SOURCE_DIR) / "README.md");
+  std::vector<std::vector<std::string>> rows;
+  bool inSection = false;
+  for (std::string line; std::getline(readme, line);) {
+    if (line.rfind("## ", 0) == 0) inSection = line == "## glTF extensions";
+    if (!inSection || line.rfind("| `", 0) != 0) continue;
+    std::vector<std::string> cells;
+    for (size_t at = 2; at < line.size();) {
+      const size_t end = line.find(" | ", at);
+      cells.push_back(line.substr(at, (end == std::string::npos ? line.size() - 2 : end) - at));
+      at = end == std::string::npos ? line.size() : end + 3;
+    }
+    rows.push_back(cells);
+  }
+  const char* classes[] = {"baked", "kept", "fallback", "approximated", "refused"};
+  const auto& known = radbake::knownExtensions();
+  ASSERT_EQ(rows.size(), known.size());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), 4u) << i;
+    EXPECT_EQ(rows[i][0], "`" + known[i].name + "`");
+    EXPECT_EQ(rows[i][1], classes[int(known[i].use)]) << known[i].name;
+    EXPECT_EQ(rows[i][2], radbake::acceptedWhenRequired(known[i].name) ? "accepted" : "exit 3") << known[i].name;
+    EXPECT_EQ(rows[i][3], known[i].note) << known[i].name;
+  }
 }
 
 }  // namespace
