@@ -30,6 +30,17 @@ constexpr Matrix4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 // A NORMAL this far from unit length is repaired (flat normal) with a warning.
 constexpr double kNormalLengthTolerance = 1e-3;
 
+// KHR_mesh_quantization stores normals as normalized bytes or shorts: each component is rounded
+// to a step of 1/127 or 1/32767, so a unit normal's length may be off by √3 half steps (0.0068 for
+// bytes; gltfpack writes 8-bit normals by default). That much is no broken normal.
+double normalLengthTolerance(const tinygltf::Accessor& acc) {
+  if (!acc.normalized) return kNormalLengthTolerance;
+  if (acc.componentType == TINYGLTF_COMPONENT_TYPE_BYTE) return kNormalLengthTolerance + std::sqrt(3.0) * 0.5 / 127;
+  if (acc.componentType == TINYGLTF_COMPONENT_TYPE_SHORT) return kNormalLengthTolerance + std::sqrt(3.0) * 0.5 / 32767;
+  return kNormalLengthTolerance;
+}
+
+
 struct Context {
   std::string file;  // the name printed in messages
   std::vector<std::string>* warnings;
@@ -560,11 +571,12 @@ struct Importer {
     if (nIt != prim.attributes.end() && m.accessors[nIt->second].count == count &&
         m.accessors[nIt->second].type == TINYGLTF_TYPE_VEC3) {
       const std::vector<double> nrm = readAccessor(ctx, m, nIt->second, what + " NORMAL");
+      const double tolerance = normalLengthTolerance(m.accessors[nIt->second]);
       out.hasNormals = true;
       for (size_t i = 0; i < count; ++i) {
         const Vec3 n{nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]};
         const double len = length(n);
-        if (!isFinite(n) || std::abs(len - 1) > kNormalLengthTolerance) {
+        if (!isFinite(n) || std::abs(len - 1) > tolerance) {
           repaired = true;
           out.hasNormals = false;
           break;

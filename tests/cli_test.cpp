@@ -1596,4 +1596,36 @@ TEST(Extensions, ReadmeTableIsTheCodesTable) {
   }
 }
 
+
+// ---- KHR_mesh_quantization normals ----
+
+// One triangle whose NORMAL is a normalized BYTE accessor holding `normal` at each vertex.
+std::string byteNormalTriangle(const std::array<int8_t, 3>& normal) {
+  std::vector<float> data{0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0};  // positions, then 3 × 4 normal bytes
+  for (int v = 0; v < 3; ++v) std::memcpy(reinterpret_cast<char*>(&data[9 + v]), normal.data(), 3);
+  return R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"],
+    "scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":1}}]}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                 {"bufferView":1,"componentType":5120,"normalized":true,"count":3,"type":"VEC3"}],
+    "bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":12,"byteStride":4}],
+    "buffers":[{"byteLength":48,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+}
+
+TEST(Quantization, EightBitNormalsWithinTheirRoundingAreKept) {
+  // (0.6, 0.8, 0) in normalized bytes is (76, 102, 0)/127, of length 1.0016: rounding, not a broken
+  // normal (a byte normal may be off by √3 half steps, 0.0068). (0, 120, 0)/127 is off by 0.055.
+  const fs::path dir = tempDir();
+  auto warnings = [&](const std::string& name, const std::array<int8_t, 3>& normal) {
+    std::ofstream(dir / name) << byteNormalTriangle(normal);
+    const RunResult r = radbake({"info", (dir / name).string(), "--json"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    return json::parse(r.out)["warnings"].get<std::vector<std::string>>();
+  };
+  EXPECT_EQ(warnings("byte_normal.gltf", {76, 102, 0}), std::vector<std::string>{});
+  const auto broken = warnings("byte_normal_short.gltf", {0, 120, 0});
+  ASSERT_EQ(broken.size(), 1u);
+  EXPECT_NE(broken[0].find("NORMAL accessor 1 has non-unit or non-finite normals"), std::string::npos) << broken[0];
+}
+
 }  // namespace
