@@ -19,6 +19,7 @@
 #include "importers/bpt_importer.h"
 #include "importers/draco.h"
 #include "importers/extensions.h"
+#include "importers/meshopt.h"
 #include "importers/texture.h"
 
 namespace radbake {
@@ -39,7 +40,6 @@ double normalLengthTolerance(const tinygltf::Accessor& acc) {
   if (acc.componentType == TINYGLTF_COMPONENT_TYPE_SHORT) return kNormalLengthTolerance + std::sqrt(3.0) * 0.5 / 32767;
   return kNormalLengthTolerance;
 }
-
 
 struct Context {
   std::string file;  // the name printed in messages
@@ -750,10 +750,13 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
       ctx.warn(ext + " is approximated: " + known->note);
 
   std::vector<unsigned char> glb;  // the GLB again, when its JSON had to change for tinygltf
-  if (std::string fixed = withoutDracoIndices(jsonText); !fixed.empty()) {
-    jsonText = fixed;
-    if (binary) glb = repackGlb(bytes, jsonText);
-  }
+  bool changed = false;
+  for (auto fix : {withoutDracoIndices, withMeshoptFallbacksStubbed})
+    if (std::string fixed = fix(jsonText); !fixed.empty()) {
+      jsonText = std::move(fixed);
+      changed = true;
+    }
+  if (changed && binary) glb = repackGlb(bytes, jsonText);
 
   auto document = std::make_shared<SourceDocument>();
   document->binary = binary;
@@ -767,6 +770,8 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
                    : loader.LoadASCIIFromString(&document->model, &err, &warn, jsonText.data(), unsigned(jsonText.size()), baseDir);
   if (!ok) ctx.invalid(firstLine(err.empty() ? std::string("could not be parsed as glTF") : err));
   tinygltf::Model& m = document->model;
+  // Meshopt first: it decodes buffer views, which a Draco stream could in principle sit in.
+  if (std::string problem = decodeMeshoptBufferViews(m); !problem.empty()) ctx.invalid(problem);
   if (std::string problem = decodeDracoPrimitives(m); !problem.empty()) ctx.invalid(problem);
   if (m.asset.version.rfind("2.", 0) != 0)
     ctx.fail(ExitCode::kUnsupported, "asset version \"" + m.asset.version + "\" (only glTF 2.0 is supported)");
@@ -815,7 +820,7 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
   for (const auto& mesh : m.meshes)
     for (const auto& prim : mesh.primitives)
       if (auto it = prim.attributes.find("POSITION"); it != prim.attributes.end()) c.vertices += m.accessors[it->second].count;
-  scene.extensionsUsed = m.extensionsUsed;
+  scene.extensionsUsed = summary.extensionsUsed;  // as the file lists them (decoding drops some from the model)
   scene.document = std::move(document);
   // A mesh placed by several nodes would repeat its warnings: each is said once, in order.
   std::set<std::string> said;

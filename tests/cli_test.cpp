@@ -12,6 +12,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iostream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -1626,6 +1628,320 @@ TEST(Quantization, EightBitNormalsWithinTheirRoundingAreKept) {
   const auto broken = warnings("byte_normal_short.gltf", {0, 120, 0});
   ASSERT_EQ(broken.size(), 1u);
   EXPECT_NE(broken[0].find("NORMAL accessor 1 has non-unit or non-finite normals"), std::string::npos) << broken[0];
+}
+
+// ---- EXT_meshopt_compression: gltfpack's output, made at test time ----
+
+const fs::path kGltfpack = fs::path(RADBAKE_TOOLS_DIR) / "node_modules" / "gltfpack" / "cli.js";
+
+// Runs a shell command; its exit status, with stdout and stderr in `log`.
+int runShell(const std::string& command, std::string* log) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) return -1;
+  char buffer[4096];
+  while (fgets(buffer, sizeof buffer, pipe)) *log += buffer;
+  return WEXITSTATUS(pclose(pipe));
+}
+
+// gltfpack (npm, WebAssembly) as users run it: `node cli.js -i IN -o OUT FLAGS`.
+void gltfpack(const fs::path& in, const fs::path& out, const std::string& flags) {
+  std::string log;
+  ASSERT_EQ(runShell("node '" + kGltfpack.string() + "' -i '" + in.string() + "' -o '" + out.string() + "' " + flags, &log), 0) << log;
+  ASSERT_TRUE(fs::exists(out)) << log;
+}
+
+// One baked vertex as written: world position and normal (from the output file itself), its
+// material's name, and its _RADIANCE.
+struct BakedVertex {
+  radbake::Vec3 position, normal;
+  std::string material;
+  radbake::Vec3 L;
+};
+
+std::vector<BakedVertex> bakedVertices(const fs::path& output) {
+  const radbake::Scene scene = radbake::importScene(output.string());
+  tinygltf::Model m;
+  EXPECT_TRUE(loadModel(output, &m));
+  std::vector<BakedVertex> out;
+  for (const radbake::Primitive& prim : scene.primitives) {
+    const std::vector<float> L = radianceOf(m, m.meshes[prim.mesh].primitives[prim.primitive]);
+    EXPECT_EQ(L.size(), 3 * prim.positions.size());
+    for (size_t v = 0; v < prim.positions.size(); ++v)
+      out.push_back({prim.positions[v], prim.normals[v], scene.materials[prim.material].name, {L[3 * v], L[3 * v + 1], L[3 * v + 2]}});
+  }
+  return out;
+}
+
+// Every vertex of `a` against the nearest vertex of `b` with the same material and normal.
+struct VertexComparison {
+  size_t compared = 0;
+  double farthest = 0;    // largest distance to the matched vertex
+  double worstDelta = 0;  // largest |ΔL| of a channel
+  double worstExcess = -1;  // largest |ΔL| − allowed(L) of a channel; ≤ 0 when all are within
+};
+
+VertexComparison compareBakes(const std::vector<BakedVertex>& a, const std::vector<BakedVertex>& b,
+                              const std::function<double(double, double, size_t)>& allowed) {
+  VertexComparison c;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const BakedVertex* best = nullptr;
+    double bestDistance = 1e30;
+    for (const BakedVertex& v : b)
+      if (v.material == a[i].material && radbake::dot(v.normal, a[i].normal) > 0.99) {
+        const double d = radbake::length(v.position - a[i].position);
+        if (d < bestDistance) bestDistance = d, best = &v;
+      }
+    if (!best) {
+      ADD_FAILURE() << "no match for vertex " << i;
+      continue;
+    }
+    ++c.compared;
+    c.farthest = std::max(c.farthest, bestDistance);
+    const double la[3] = {a[i].L.x, a[i].L.y, a[i].L.z}, lb[3] = {best->L.x, best->L.y, best->L.z};
+    for (int k = 0; k < 3; ++k) {
+      c.worstDelta = std::max(c.worstDelta, std::abs(la[k] - lb[k]));
+      c.worstExcess = std::max(c.worstExcess, std::abs(la[k] - lb[k]) - allowed(la[k], lb[k], i * 3 + k));
+    }
+  }
+  return c;
+}
+
+// Two bakes of one geometry whose patches list their corners in another order (gltfpack reorders
+// vertices and merges primitives) agree to the kernels' accuracy, not bit for bit: each K_ij is
+// within 1e-6 of its value (docs/radiosity.md), and interreflection amplifies a relative error by
+// at most 1/(1 − ρmax) = 4.5 in the Cornell box (ρ ≤ 0.78). On top, each _RADIANCE channel is a
+// double rounded to float (2⁻²⁴ relative each); the solver runs to a residual of 1e-12, and 1e-9
+// absolute covers unlit vertices.
+double sameGeometry(double la, double lb, size_t) {
+  const double L = std::max(std::abs(la), std::abs(lb));
+  return 4.6e-6 * L + std::ldexp(L, -23) + 1e-9;
+}
+
+// The JSON chunk of a .glb (tinygltf 2.7 cannot load gltfpack's meshopt files: the fallback buffer).
+json glbJson(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  uint32_t length = 0;
+  std::memcpy(&length, bytes.data() + 12, 4);
+  return json::parse(bytes.substr(20, length));
+}
+
+// The vertices a file holds, as the importer places them (world space, unit normals).
+std::vector<BakedVertex> importedVertices(const fs::path& file) {
+  const radbake::Scene scene = radbake::importScene(file.string());
+  std::vector<BakedVertex> out;
+  for (const radbake::Primitive& prim : scene.primitives)
+    for (size_t v = 0; v < prim.positions.size(); ++v)
+      out.push_back({prim.positions[v], prim.normals[v], scene.materials[prim.material].name, {}});
+  return out;
+}
+
+// Every vertex of `decoded` lies within `maxDistance` of a vertex of `original` of the same
+// material, whose normal is within `maxDegrees` of its own.
+void expectVerticesNear(const std::vector<BakedVertex>& original, const std::vector<BakedVertex>& decoded,
+                        double maxDistance, double maxDegrees, double* farthest, double* widest) {
+  for (const BakedVertex& d : decoded) {
+    const BakedVertex* best = nullptr;
+    for (const BakedVertex& o : original)
+      if (o.material == d.material && radbake::dot(o.normal, d.normal) > 0.9 &&
+          (!best || radbake::length(o.position - d.position) < radbake::length(best->position - d.position)))
+        best = &o;
+    ASSERT_NE(best, nullptr);
+    *farthest = std::max(*farthest, radbake::length(best->position - d.position));
+    *widest = std::max(*widest, std::acos(std::min(1.0, radbake::dot(best->normal, d.normal))) * 180 / kPi);
+  }
+  EXPECT_LE(*farthest, maxDistance);
+  EXPECT_LE(*widest, maxDegrees);
+}
+
+TEST(Meshopt, GltfpackCornellBakesLikeTheOriginal) {
+  if (!fs::exists(kGltfpack)) GTEST_SKIP() << "gltfpack not installed (scripts/setup.sh installs it)";
+  const fs::path dir = tempDir() / "meshopt";
+  fs::create_directories(dir);
+  const fs::path original = fs::path(RADBAKE_SOURCE_DIR) / "examples" / "cornell_box.gltf";
+  const fs::path exact = dir / "cornell_noq.gltf", quantized = dir / "cornell_cc.glb", floatNormals = dir / "cornell_vnf.gltf";
+  const fs::path plain = dir / "cornell_q.gltf";
+  gltfpack(original, exact, "-cc -noq");        // exact float geometry, compressed
+  gltfpack(original, quantized, "-cc");         // the default: 14-bit positions, 8-bit OCTAHEDRAL normals
+  gltfpack(original, floatNormals, "-cc -vnf");  // float normals through the EXPONENTIAL filter
+  gltfpack(original, plain, "");                // the default quantization without meshopt
+  const std::vector<std::string> options{"--subdivide", "2", "--tolerance", "1e-12", "--progress", "none"};
+  auto bake = [&](const fs::path& in) {
+    const fs::path out = dir / (in.stem().string() + "_baked.gltf");
+    std::vector<std::string> args{"bake", in.string(), "-o", out.string()};
+    args.insert(args.end(), options.begin(), options.end());
+    const RunResult r = radbake(args);
+    EXPECT_EQ(r.code, 0) << in << ": " << r.err;
+    EXPECT_EQ(r.err, "") << in;  // no warning: no normal needed repair
+    return out;
+  };
+
+  // The inputs are what the test says they are.
+  for (const fs::path& f : {exact, quantized, floatNormals}) {
+    const RunResult info = radbake({"info", f.string(), "--json"});
+    ASSERT_EQ(info.code, 0) << info.err;
+    const json used = json::parse(info.out)["extensionsUsed"];
+    EXPECT_NE(std::find(used.begin(), used.end(), "EXT_meshopt_compression"), used.end()) << info.out;
+    EXPECT_EQ(std::find(used.begin(), used.end(), "KHR_mesh_quantization") != used.end(), f != exact) << info.out;
+  }
+  EXPECT_EQ(readJson(plain)["extensionsUsed"], json({"KHR_mesh_quantization", "KHR_materials_emissive_strength"}));
+
+  // Decoded geometry against the original file's. Positions snap to a grid of step s, the node
+  // scale gltfpack writes (14 bits over the box's largest extent, 559.2 mm): a vertex moves at most
+  // √3·s/2. An 8-bit octahedral normal is off by at most 0.94°: half a step (1/127) in each
+  // octahedral coordinate, stretched up to √3 onto the sphere (0.55°), then each component rounded
+  // to 1/127 again (√3 × half a step, 0.39°). The EXPONENTIAL filter keeps 8 mantissa bits at -vn 8.
+  const double step = glbJson(quantized)["nodes"][0]["scale"][0].get<double>();
+  EXPECT_NEAR(step, 0.5592 / 16383, 1e-9);
+  const std::vector<BakedVertex> originalVertices = importedVertices(original);
+  double farthest = 0, widest = 0;
+  expectVerticesNear(originalVertices, importedVertices(exact), 0, 1e-5, &farthest, &widest);  // acos near 1: 1e-8 rad of noise
+  double moved = 0, turned = 0;
+  expectVerticesNear(originalVertices, importedVertices(quantized), std::sqrt(3.0) * step / 2, 0.94, &moved, &turned);
+  double movedVnf = 0, turnedVnf = 0;
+  expectVerticesNear(originalVertices, importedVertices(floatNormals), std::sqrt(3.0) * step / 2, 0.94, &movedVnf, &turnedVnf);
+
+  const fs::path bakedOriginal = bake(original), bakedExact = bake(exact), bakedQuantized = bake(quantized);
+  const fs::path bakedPlain = bake(plain);
+  // The outputs are plain glTF: no meshopt left, and valid.
+  for (const fs::path& f : {bakedExact, bakedQuantized}) {
+    const json out = readJson(f);
+    for (const char* list : {"extensionsUsed", "extensionsRequired"})
+      for (const auto& ext : out.value(list, json::array())) EXPECT_NE(ext, "EXT_meshopt_compression") << f;
+    for (const auto& view : out["bufferViews"]) EXPECT_FALSE(view.contains("extensions")) << f;
+  }
+  if (validatorAvailable()) {
+    std::string log;
+    EXPECT_EQ(runValidator({bakedExact, bakedQuantized}, &log), 0) << log;
+  }
+
+  // -noq: the same geometry (gltfpack merges the primitives of a material and drops duplicate
+  // vertices, so vertices are matched by position); the radiance agrees as bakes of one geometry do.
+  const std::vector<BakedVertex> reference = bakedVertices(bakedOriginal);
+  const VertexComparison exactCmp = compareBakes(reference, bakedVertices(bakedExact), sameGeometry);
+  EXPECT_GT(exactCmp.compared, 200u);
+  EXPECT_EQ(exactCmp.farthest, 0.0);
+  EXPECT_LE(exactCmp.worstExcess, 0.0) << "max |dL| " << exactCmp.worstDelta;
+
+  // The default: what quantizing alone does to the light is measured on gltfpack's output without
+  // -c (KHR_mesh_quantization read by the plain accessor path: the same position grid, normals
+  // rounded per component to 8 bits, ≤ 0.39°). The compressed file has the same positions and
+  // normals off by a like amount (≤ 0.94°, octahedral); its light may differ from the original's
+  // by up to twice the worst difference quantizing alone makes, plus the bake's own agreement.
+  const VertexComparison quantizationCmp = compareBakes(reference, bakedVertices(bakedPlain), [](double, double, size_t) { return 1e30; });
+  const VertexComparison quantizedCmp = compareBakes(reference, bakedVertices(bakedQuantized), [&](double la, double lb, size_t k) {
+    return 2 * quantizationCmp.worstDelta + sameGeometry(la, lb, k);
+  });
+  EXPECT_LE(quantizedCmp.farthest, std::sqrt(3.0) * step / 2);
+  EXPECT_LE(quantizedCmp.worstExcess, 0.0) << quantizedCmp.worstDelta;
+
+  double largest = 0;
+  for (const BakedVertex& v : reference) largest = std::max({largest, v.L.x, v.L.y, v.L.z});
+  std::cout << "meshopt: -cc -noq vs original: max |dL| " << exactCmp.worstDelta << "\n"
+            << "meshopt: -cc (grid step " << step << " m): vertices moved up to " << moved << " m, normals turned up to "
+            << turned << " deg (-vnf: " << turnedVnf << " deg); max |dL| vs original " << quantizedCmp.worstDelta
+            << ", quantizing alone (no -c) " << quantizationCmp.worstDelta << "; largest L " << largest << "\n";
+}
+
+TEST(Meshopt, CorruptOrOversizedStreamsAreOneLineExit2) {
+  if (!fs::exists(kGltfpack)) GTEST_SKIP() << "gltfpack not installed (scripts/setup.sh installs it)";
+  const fs::path dir = tempDir() / "meshopt_bad";
+  fs::create_directories(dir);
+  const fs::path packed = dir / "packed.gltf";
+  gltfpack(fs::path(RADBAKE_SOURCE_DIR) / "examples" / "cornell_box.gltf", packed, "-cc");
+  const json doc = readJson(packed);
+  std::ifstream binFile(dir / doc["buffers"][0]["uri"].get<std::string>(), std::ios::binary);
+  const std::string bin((std::istreambuf_iterator<char>(binFile)), {});
+  // A broken copy: its JSON and its .bin under a new name; bakes it, expecting exit 2 and exactly
+  // "error: NAME.gltf: buffer view N EXT_meshopt_compression: " followed by `problem` (or anything,
+  // when `problem` is empty), and no output.
+  auto expectBroken = [&](const std::string& name, json broken, const std::string& bytes, size_t view, const std::string& problem) {
+    SCOPED_TRACE(name);
+    broken["buffers"][0]["uri"] = name + ".bin";
+    std::ofstream(dir / (name + ".bin"), std::ios::binary) << bytes;
+    std::ofstream(dir / (name + ".gltf")) << broken.dump();
+    const fs::path out = dir / (name + "_out.glb");
+    const RunResult r = radbake({"bake", (dir / (name + ".gltf")).string(), "-o", out.string(), "--progress", "none"});
+    EXPECT_EQ(r.code, 2) << r.err;
+    const std::string prefix = "error: " + name + ".gltf: buffer view " + std::to_string(view) + " EXT_meshopt_compression: ";
+    EXPECT_EQ(r.err.rfind(prefix, 0), 0u) << r.err;
+    if (!problem.empty()) {
+      EXPECT_EQ(r.err, prefix + problem + "\n");
+    }
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  };
+  // Every byte of one compressed stream flipped: each stream's header stops matching its codec.
+  size_t streams = 0;
+  for (size_t v = 0; v < doc["bufferViews"].size(); ++v) {
+    const json& ext = doc["bufferViews"][v]["extensions"]["EXT_meshopt_compression"];
+    std::string flipped = bin;
+    for (size_t i = 0; i < ext["byteLength"].get<size_t>(); ++i) flipped[ext.value("byteOffset", size_t(0)) + i] ^= char(0xFF);
+    const std::string mode = ext["mode"].get<std::string>();
+    expectBroken("flipped" + std::to_string(v), doc, flipped, v,
+                 "the " + mode + " data is corrupt (meshoptimizer cannot decode it, code -1)");
+    ++streams;
+  }
+  EXPECT_GE(streams, 3u);  // positions, normals, indices
+  // A stream cut one byte short.
+  json cut = doc;
+  cut["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["byteLength"] =
+      doc["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["byteLength"].get<int>() - 1;
+  expectBroken("cut", cut, bin, 0, "");
+  // Sizes are checked before anything is allocated: a count that does not fill the view, and
+  // 4 GB claimed from a few hundred bytes.
+  json miscounted = doc;
+  auto& ext = miscounted["bufferViews"][0]["extensions"]["EXT_meshopt_compression"];
+  const int stride = ext["byteStride"].get<int>(), count = ext["count"].get<int>();
+  ext["count"] = count + 1;
+  expectBroken("miscounted", miscounted, bin, 0,
+               "count " + std::to_string(count + 1) + " × byteStride " + std::to_string(stride) +
+                   " is not the buffer view's byteLength " + std::to_string(count * stride));
+  json huge = doc;
+  const uint64_t claimed = 500000000ull * stride;
+  huge["bufferViews"][0]["byteLength"] = claimed;
+  huge["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["count"] = 500000000;
+  huge["buffers"][1]["byteLength"] = claimed + 4096;
+  const int compressed = huge["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["byteLength"].get<int>();
+  expectBroken("huge", huge, bin, 0,
+               std::to_string(compressed) + " compressed bytes cannot hold " + std::to_string(claimed) + " bytes");
+}
+
+
+TEST(Meshopt, FallbackBuffersAreNotNeededAndKhrMeshoptReadsItsFallback) {
+  if (!fs::exists(kGltfpack)) GTEST_SKIP() << "gltfpack not installed (scripts/setup.sh installs it)";
+  const fs::path dir = tempDir() / "meshopt_fallback";
+  fs::create_directories(dir);
+  const fs::path original = fs::path(RADBAKE_SOURCE_DIR) / "examples" / "cornell_box.gltf";
+  auto bakeClean = [&](const fs::path& in, const char* extension) {
+    SCOPED_TRACE(in.string());
+    const fs::path out = dir / (in.stem().string() + "_baked.gltf");
+    const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--progress", "none"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    EXPECT_EQ(readJson(out).dump().find(extension), std::string::npos);
+    return out;
+  };
+  // -cf: the uncompressed data also goes to a fallback file; radbake decodes and never opens it.
+  const fs::path withFallback = dir / "cornell_cf.gltf";
+  gltfpack(original, withFallback, "-c -cf");
+  ASSERT_TRUE(fs::remove(dir / "cornell_cf.fallback.bin"));
+  const fs::path a = bakeClean(withFallback, "meshopt");
+  // KHR_meshopt_compression (draft) only used, with a fallback: radbake reads the fallback data.
+  const fs::path khr = dir / "cornell_khr.gltf";
+  gltfpack(original, khr, "-c -cf -ce khr");
+  const fs::path b = bakeClean(khr, "meshopt");
+  if (validatorAvailable()) {
+    std::string log;
+    EXPECT_EQ(runValidator({a, b}, &log), 0) << log;
+  }
+  // Required (no fallback data), it is refused.
+  const fs::path khrRequired = dir / "cornell_khr_required.gltf", none = dir / "none.glb";
+  gltfpack(original, khrRequired, "-c -ce khr");
+  const RunResult r = radbake({"bake", khrRequired.string(), "-o", none.string()});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_EQ(r.err, "error: cornell_khr_required.gltf: requires extension KHR_meshopt_compression, which radbake does not support\n");
+  EXPECT_FALSE(fs::exists(none));
 }
 
 }  // namespace
