@@ -18,6 +18,8 @@
 #include "importers/importers.h"
 #include "importers/bpt_importer.h"
 #include "importers/draco.h"
+#include "importers/extensions.h"
+#include "importers/meshopt.h"
 #include "importers/texture.h"
 
 namespace radbake {
@@ -28,6 +30,16 @@ using Matrix4 = std::array<double, 16>;  // column-major, as glTF stores it
 constexpr Matrix4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 // A NORMAL this far from unit length is repaired (flat normal) with a warning.
 constexpr double kNormalLengthTolerance = 1e-3;
+
+// KHR_mesh_quantization stores normals as normalized bytes or shorts: each component is rounded
+// to a step of 1/127 or 1/32767, so a unit normal's length may be off by √3 half steps (0.0068 for
+// bytes; gltfpack writes 8-bit normals by default). That much is no broken normal.
+double normalLengthTolerance(const tinygltf::Accessor& acc) {
+  if (!acc.normalized) return kNormalLengthTolerance;
+  if (acc.componentType == TINYGLTF_COMPONENT_TYPE_BYTE) return kNormalLengthTolerance + std::sqrt(3.0) * 0.5 / 127;
+  if (acc.componentType == TINYGLTF_COMPONENT_TYPE_SHORT) return kNormalLengthTolerance + std::sqrt(3.0) * 0.5 / 32767;
+  return kNormalLengthTolerance;
+}
 
 struct Context {
   std::string file;  // the name printed in messages
@@ -296,12 +308,14 @@ Vec3 transformNormal(const NormalMatrix& n, const Vec3& v) {
                         c[6] * v.x + c[7] * v.y + c[8] * v.z});
 }
 
-std::string extensionsNotSupported(const std::vector<std::string>& required) {
-  static const std::set<std::string> kSupportedRequired = {
-      "KHR_mesh_quantization", "KHR_texture_transform", "KHR_materials_emissive_strength",
-      "KHR_materials_unlit", "KHR_materials_pbrSpecularGlossiness", "KHR_draco_mesh_compression"};
-  for (const std::string& ext : required)
-    if (!kSupportedRequired.count(ext)) return ext;
+// The first extension the file cannot be baked with: one it requires that radbake cannot honour
+// (importers/extensions.cpp), or one radbake cannot load even when it is only used. "" if none.
+std::string extensionRefused(const JsonSummary& summary) {
+  for (const std::string& ext : summary.extensionsRequired)
+    if (!acceptedWhenRequired(ext)) return "requires extension " + ext + ", which radbake does not support";
+  for (const std::string& ext : summary.extensionsUsed)
+    if (const KnownExtension* known = findExtension(ext); known && known->use == ExtensionUse::kRefused)
+      return "uses extension " + ext + ", which radbake cannot load: " + known->note;
   return "";
 }
 
@@ -557,11 +571,12 @@ struct Importer {
     if (nIt != prim.attributes.end() && m.accessors[nIt->second].count == count &&
         m.accessors[nIt->second].type == TINYGLTF_TYPE_VEC3) {
       const std::vector<double> nrm = readAccessor(ctx, m, nIt->second, what + " NORMAL");
+      const double tolerance = normalLengthTolerance(m.accessors[nIt->second]);
       out.hasNormals = true;
       for (size_t i = 0; i < count; ++i) {
         const Vec3 n{nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]};
         const double len = length(n);
-        if (!isFinite(n) || std::abs(len - 1) > kNormalLengthTolerance) {
+        if (!isFinite(n) || std::abs(len - 1) > tolerance) {
           repaired = true;
           out.hasNormals = false;
           break;
@@ -722,8 +737,7 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
   }
   if (std::string problem = checkGltfSchema(jsonText); !problem.empty()) ctx.invalid(problem);
   const JsonSummary summary = summarizeGltfJson(jsonText);
-  if (std::string ext = extensionsNotSupported(summary.extensionsRequired); !ext.empty()) {
-    const std::string message = "requires extension " + ext + ", which radbake does not support";
+  if (std::string message = extensionRefused(summary); !message.empty()) {
     if (options.requireSupportedExtensions) ctx.fail(ExitCode::kUnsupported, message);
     ctx.warn(message + "; its geometry is not read");
     scene.counts = summary.counts;
@@ -731,11 +745,18 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
     return scene;
   }
 
+  for (const std::string& ext : summary.extensionsUsed)
+    if (const KnownExtension* known = findExtension(ext); known && known->use == ExtensionUse::kApproximated)
+      ctx.warn(ext + " is approximated: " + known->note);
+
   std::vector<unsigned char> glb;  // the GLB again, when its JSON had to change for tinygltf
-  if (std::string fixed = withoutDracoIndices(jsonText); !fixed.empty()) {
-    jsonText = fixed;
-    if (binary) glb = repackGlb(bytes, jsonText);
-  }
+  bool changed = false;
+  for (auto fix : {withoutDracoIndices, withMeshoptFallbacksStubbed})
+    if (std::string fixed = fix(jsonText); !fixed.empty()) {
+      jsonText = std::move(fixed);
+      changed = true;
+    }
+  if (changed && binary) glb = repackGlb(bytes, jsonText);
 
   auto document = std::make_shared<SourceDocument>();
   document->binary = binary;
@@ -749,6 +770,8 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
                    : loader.LoadASCIIFromString(&document->model, &err, &warn, jsonText.data(), unsigned(jsonText.size()), baseDir);
   if (!ok) ctx.invalid(firstLine(err.empty() ? std::string("could not be parsed as glTF") : err));
   tinygltf::Model& m = document->model;
+  // Meshopt first: it decodes buffer views, which a Draco stream could in principle sit in.
+  if (std::string problem = decodeMeshoptBufferViews(m); !problem.empty()) ctx.invalid(problem);
   if (std::string problem = decodeDracoPrimitives(m); !problem.empty()) ctx.invalid(problem);
   if (m.asset.version.rfind("2.", 0) != 0)
     ctx.fail(ExitCode::kUnsupported, "asset version \"" + m.asset.version + "\" (only glTF 2.0 is supported)");
@@ -797,7 +820,7 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
   for (const auto& mesh : m.meshes)
     for (const auto& prim : mesh.primitives)
       if (auto it = prim.attributes.find("POSITION"); it != prim.attributes.end()) c.vertices += m.accessors[it->second].count;
-  scene.extensionsUsed = m.extensionsUsed;
+  scene.extensionsUsed = summary.extensionsUsed;  // as the file lists them (decoding drops some from the model)
   scene.document = std::move(document);
   // A mesh placed by several nodes would repeat its warnings: each is said once, in order.
   std::set<std::string> said;

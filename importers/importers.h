@@ -121,7 +121,7 @@ struct Scene {
   std::vector<Texture> textures;           // decoded color textures the materials use
   std::vector<std::string> warnings;  // each names the file and the element
   SceneCounts counts;                 // what the document holds (for `radbake info`)
-  std::vector<std::string> extensionsUsed;
+  std::vector<std::string> extensionsUsed;  // as the file lists them
   std::shared_ptr<const SourceDocument> document;
 
   bool hasEmitter() const;

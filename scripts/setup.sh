@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config
   libtinygltf-dev libosd-dev libeigen3-dev libopenexr-dev libimath-dev libopencolorio-dev
-  libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libstb-dev libdraco-dev
+  libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libstb-dev libdraco-dev libmeshoptimizer-dev
   blender python3-numpy xvfb xauth)
 packages+=(chromium)  # the browser render test (tests/browser): three.js in headless Chromium
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
@@ -24,9 +24,9 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-# JavaScript test tools, pinned by tools/package-lock.json.
+# JavaScript test tools, pinned by tools/package-lock.json (gltfpack makes the meshopt test input).
 if [ ! -d tools/node_modules/gltf-validator ] || [ ! -d tools/node_modules/three ] ||
-   [ ! -d tools/node_modules/playwright-core ]; then
-  echo "setup: installing the JavaScript test tools (npm: gltf-validator, three, playwright-core)"
+   [ ! -d tools/node_modules/playwright-core ] || [ ! -d tools/node_modules/gltfpack ]; then
+  echo "setup: installing the JavaScript test tools (npm: gltf-validator, three, playwright-core, gltfpack)"
   (cd tools && npm ci --no-audit --no-fund --loglevel=error)
 fi

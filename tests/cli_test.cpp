@@ -12,12 +12,15 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iostream>
 #include <map>
 #include <set>
 #include <sstream>
 #include <tuple>
 
 #include "exporters/exporters.h"
+#include "importers/extensions.h"
 #include "radiosity/radiosity.h"
 #include "plugin/cli/cli.h"
 
@@ -1366,6 +1369,579 @@ TEST(LightmapOutput, AFailedWriteLeavesNothingAndBadNamesAreUsageErrors) {
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("64x64 allowed"), std::string::npos) << r.err;
   for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
+}
+
+
+// ---- Extensions (importers/extensions.cpp; README's extension table) ----
+
+// The lit plate of the Lights tests (10 cd, 2 m above the centre of a ρ 0.5 plate) as JSON, to add
+// extensions to.
+json litPlateJson() { return json::parse(litPlateGltf(R"({"type":"point","intensity":10})", "0,2,0")); }
+
+struct ExtensionBake {
+  RunResult run;
+  fs::path output;  // a .gltf, to read back as JSON
+  json report;      // --report, when the bake succeeded
+  std::vector<double> red;  // the probed red radiance at the plate's centre and corner (1, 1)
+};
+
+ExtensionBake bakeWithExtensions(const json& doc, const std::string& name) {
+  const fs::path dir = tempDir(), in = dir / (name + ".gltf"), probes = dir / (name + "_probes.csv");
+  const fs::path values = dir / (name + "_values.csv"), report = dir / (name + "_report.json");
+  ExtensionBake bake;
+  bake.output = dir / (name + "_out.gltf");
+  fs::remove(bake.output);
+  std::ofstream(in) << doc.dump();
+  std::ofstream(probes) << "x,y,z,nx,ny,nz\n0,0,0,0,1,0\n1,0,1,0,1,0\n";
+  bake.run = radbake({"bake", in.string(), "-o", bake.output.string(), "--subdivide", "2", "--probe", probes.string(),
+                      "--probe-out", values.string(), "--report", report.string(), "--progress", "none"});
+  if (bake.run.code == 0) {
+    bake.report = json::parse(std::ifstream(report));
+    bake.red = probeRed(values);
+  }
+  return bake;
+}
+
+json readJson(const fs::path& path) { return json::parse(std::ifstream(path)); }
+
+// A refusal: exit 3, exactly `message` after "error: NAME.gltf: ", and no output.
+void expectRefused(const ExtensionBake& bake, const std::string& name, const std::string& message) {
+  EXPECT_EQ(bake.run.code, 3) << bake.run.err;
+  EXPECT_EQ(bake.run.err, "error: " + name + ".gltf: " + message + "\n");
+  EXPECT_FALSE(fs::exists(bake.output));
+}
+
+// The closed form at the plate's centre and at its corner (1, 0, 1): L = ρ I cosθ / (π r²).
+void expectLitPlate(const ExtensionBake& bake) {
+  ASSERT_EQ(bake.red.size(), 2u);
+  EXPECT_NEAR(bake.red[0], 0.5 * 10 / (kPi * 4), 1e-12);
+  EXPECT_NEAR(bake.red[1], 0.5 * 10 * (2 / std::sqrt(6.0)) / (kPi * 6), 1e-12);
+}
+
+std::vector<std::string> warningsOf(const ExtensionBake& bake) { return bake.report["warnings"].get<std::vector<std::string>>(); }
+
+TEST(Extensions, RequiredLightsPunctualBakesItsLight) {
+  // Blender puts KHR_lights_punctual in extensionsRequired when it exports lights.
+  json doc = litPlateJson();
+  doc["extensionsRequired"] = {"KHR_lights_punctual"};
+  const ExtensionBake bake = bakeWithExtensions(doc, "required_light");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(readJson(bake.output)["extensionsRequired"], json({"KHR_lights_punctual"}));
+}
+
+TEST(Extensions, KeptExtensionIsAcceptedWhenRequiredAndWrittenBack) {
+  // KHR_xmp_json_ld (metadata), even required: baked as without it, written back as it was.
+  json doc = litPlateJson();
+  const json packets = json::parse(R"({"packets":[{"@context":{"dc":"http://purl.org/dc/elements/1.1/"},"dc:creator":["radbake test"]}]})");
+  doc["extensions"]["KHR_xmp_json_ld"] = packets;
+  doc["asset"]["extensions"]["KHR_xmp_json_ld"] = {{"packet", 0}};
+  doc["extensionsUsed"].push_back("KHR_xmp_json_ld");
+  doc["extensionsRequired"] = {"KHR_xmp_json_ld"};
+  const ExtensionBake bake = bakeWithExtensions(doc, "kept_xmp");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(warningsOf(bake), std::vector<std::string>{});
+  const json out = readJson(bake.output);
+  EXPECT_EQ(out["extensions"]["KHR_xmp_json_ld"], packets);
+  EXPECT_EQ(out["asset"]["extensions"]["KHR_xmp_json_ld"]["packet"], 0);
+  EXPECT_EQ(out["extensionsRequired"], json({"KHR_xmp_json_ld"}));
+  if (!validatorAvailable()) GTEST_SKIP() << "gltf-validator not installed";
+  std::string log;
+  EXPECT_EQ(runValidator({bake.output}, &log), 0) << log;
+}
+
+TEST(Extensions, ApproximatedExtensionWarnsIsKeptAndIsRefusedWhenRequired) {
+  // KHR_materials_clearcoat on the plate: the coat is left out of the bake (the closed form of the
+  // bare plate still holds), said once as a warning, and the material keeps its extension.
+  json doc = litPlateJson();
+  const json coat = {{"clearcoatFactor", 1.0}, {"clearcoatRoughnessFactor", 0.1}};
+  doc["materials"][0]["extensions"]["KHR_materials_clearcoat"] = coat;
+  doc["extensionsUsed"].push_back("KHR_materials_clearcoat");
+  ExtensionBake bake = bakeWithExtensions(doc, "clearcoat");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(warningsOf(bake), std::vector<std::string>{"clearcoat.gltf: KHR_materials_clearcoat is approximated: the coat "
+                                                       "is left out; the base layer's diffuse color is baked"});
+  EXPECT_NE(bake.run.err.find("warning: clearcoat.gltf: KHR_materials_clearcoat is approximated"), std::string::npos);
+  const json out = readJson(bake.output);
+  EXPECT_EQ(out["materials"][0]["extensions"]["KHR_materials_clearcoat"], coat);
+  EXPECT_NE(std::find(out["extensionsUsed"].begin(), out["extensionsUsed"].end(), "KHR_materials_clearcoat"), out["extensionsUsed"].end());
+  if (validatorAvailable()) {
+    std::string log;
+    EXPECT_EQ(runValidator({bake.output}, &log), 0) << log;
+  }
+  // Required, radbake cannot honour it.
+  doc["extensionsRequired"] = {"KHR_materials_clearcoat"};
+  expectRefused(bakeWithExtensions(doc, "clearcoat_required"), "clearcoat_required",
+                "requires extension KHR_materials_clearcoat, which radbake does not support");
+}
+
+TEST(Extensions, GpuInstancingWarnsWhenUsedAndIsRefusedWhenRequired) {
+  // EXT_mesh_gpu_instancing: the plate's node draws it at two places. radbake bakes the node's own
+  // placement only (the instances are not in the bake): a warning; required, exit 3.
+  json doc = litPlateJson();
+  const std::vector<float> offsets{0, 0, 0, 3, 0, 0};
+  doc["buffers"].push_back({{"byteLength", 24}, {"uri", "data:application/octet-stream;base64," + base64(offsets)}});
+  doc["bufferViews"].push_back({{"buffer", 1}, {"byteLength", 24}});
+  doc["accessors"].push_back({{"bufferView", 1}, {"componentType", 5126}, {"count", 2}, {"type", "VEC3"}});
+  doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"] = {{"attributes", {{"TRANSLATION", 2}}}};
+  doc["extensionsUsed"].push_back("EXT_mesh_gpu_instancing");
+  const ExtensionBake bake = bakeWithExtensions(doc, "instanced");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  ASSERT_EQ(warningsOf(bake).size(), 1u);
+  EXPECT_EQ(warningsOf(bake)[0].rfind("instanced.gltf: EXT_mesh_gpu_instancing is approximated: the instances are left out", 0), 0u)
+      << warningsOf(bake)[0];
+  EXPECT_EQ(readJson(bake.output)["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"], 2);
+  doc["extensionsRequired"] = {"EXT_mesh_gpu_instancing"};
+  expectRefused(bakeWithExtensions(doc, "instanced_required"), "instanced_required",
+                "requires extension EXT_mesh_gpu_instancing, which radbake does not support");
+}
+
+TEST(Extensions, Ktx2TextureBakesItsPngFallbackAndIsRefusedWhenRequired) {
+  // KHR_texture_basisu: radbake does not decode KTX2, but a texture that only uses the extension
+  // also names a PNG source, and that is what a diffuse bake needs. The black/white texture of the
+  // Textures tests gives the same answers as without the extension; the KTX2 image is kept.
+  json doc = json::parse(plateGltf(R"({"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}})",
+                                   "TEXCOORD_0", {0, 1, 1, 1, 1, 0, 0, 0}, tinyPng(2, 1, {255, 255, 255, 0, 0, 0})));
+  const fs::path dir = tempDir();
+  const std::string ktx2("\xABKTX 20\xBB\r\n\x1A\n", 12);  // the KTX2 identifier; the image is never decoded
+  std::ofstream(dir / "plate.ktx2", std::ios::binary) << ktx2;
+  doc["images"].push_back({{"uri", "plate.ktx2"}, {"mimeType", "image/ktx2"}});
+  doc["textures"][0]["extensions"]["KHR_texture_basisu"] = {{"source", 1}};
+  doc["extensionsUsed"].push_back("KHR_texture_basisu");
+  const fs::path in = dir / "basisu.gltf", out = dir / "basisu_out.gltf", probes = dir / "basisu.csv", values = dir / "basisu_values.csv";
+  std::ofstream(in) << doc.dump();
+  std::ofstream(probes) << "x,y,z,nx,ny,nz\n-0.5,0,0.3,0,1,0\n0.5,0,-0.3,0,1,0\n";
+  const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--method", "constant", "--subdivide", "2",
+                               "--probe", probes.string(), "--probe-out", values.string(), "--progress", "none"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "");  // no warning: the fallback is exact
+  const auto red = probeRed(values);
+  ASSERT_EQ(red.size(), 2u);
+  EXPECT_NEAR(red[0], 0.75 * 3 / kPi, 1e-9);
+  EXPECT_NEAR(red[1], 0.25 * 3 / kPi, 1e-9);
+  tinygltf::Model m;
+  ASSERT_TRUE(loadModel(out, &m));
+  ASSERT_EQ(m.images.size(), 2u);
+  EXPECT_EQ(std::string(m.images[1].image.begin(), m.images[1].image.end()), ktx2);
+  EXPECT_EQ(m.images[1].mimeType, "image/ktx2");
+  EXPECT_EQ(m.textures[0].extensions.at("KHR_texture_basisu").Get("source").GetNumberAsInt(), 1);
+
+  doc["extensionsRequired"] = {"KHR_texture_basisu"};
+  const fs::path required = dir / "basisu_required.gltf";
+  std::ofstream(required) << doc.dump();
+  const fs::path none = dir / "basisu_required_out.glb";
+  const RunResult refused = radbake({"bake", required.string(), "-o", none.string()});
+  EXPECT_EQ(refused.code, 3);
+  EXPECT_EQ(refused.err, "error: basisu_required.gltf: requires extension KHR_texture_basisu, which radbake does not support\n");
+  EXPECT_FALSE(fs::exists(none));
+}
+
+TEST(Extensions, AnimationPointerIsRefusedEvenWhenOnlyUsed) {
+  // KHR_animation_pointer channels name no node; Debian's tinygltf 2.7 cannot parse them.
+  json doc = litPlateJson();
+  const std::vector<float> keys{0, 1, 10, 20};
+  doc["buffers"].push_back({{"byteLength", 16}, {"uri", "data:application/octet-stream;base64," + base64(keys)}});
+  doc["bufferViews"].push_back({{"buffer", 1}, {"byteLength", 16}});
+  doc["accessors"].push_back({{"bufferView", 2}, {"componentType", 5126}, {"count", 2}, {"type", "SCALAR"}, {"min", {0}}, {"max", {1}}});
+  doc["accessors"].push_back({{"bufferView", 2}, {"byteOffset", 8}, {"componentType", 5126}, {"count", 2}, {"type", "SCALAR"}});
+  doc["animations"] = json::parse(R"([{"samplers":[{"input":2,"output":3}],"channels":[{"sampler":0,"target":{"path":"pointer",
+      "extensions":{"KHR_animation_pointer":{"pointer":"/extensions/KHR_lights_punctual/lights/0/intensity"}}}}]}])");
+  doc["extensionsUsed"].push_back("KHR_animation_pointer");
+  expectRefused(bakeWithExtensions(doc, "pointer"), "pointer",
+                "uses extension KHR_animation_pointer, which radbake cannot load: its animation channels have no "
+                "target node, which tinygltf 2.7 cannot read");
+}
+
+TEST(Extensions, UnknownExtensionIsKeptWhenUsedAndRefusedWhenRequired) {
+  json doc = litPlateJson();
+  doc["materials"][0]["extensions"]["EXT_radbake_test"] = {{"answer", 42}};
+  doc["extensionsUsed"].push_back("EXT_radbake_test");
+  const ExtensionBake bake = bakeWithExtensions(doc, "unknown");
+  ASSERT_EQ(bake.run.code, 0) << bake.run.err;
+  expectLitPlate(bake);
+  EXPECT_EQ(warningsOf(bake), std::vector<std::string>{});
+  EXPECT_EQ(readJson(bake.output)["materials"][0]["extensions"]["EXT_radbake_test"]["answer"], 42);
+  doc["extensionsRequired"] = {"EXT_radbake_test"};
+  expectRefused(bakeWithExtensions(doc, "unknown_required"), "unknown_required",
+                "requires extension EXT_radbake_test, which radbake does not support");
+}
+
+
+TEST(Extensions, ReadmeTableIsTheCodesTable) {
+  // README.md's "glTF extensions" table, row by row: name, class, required, note.
+  std::ifstream readme(fs::path(RADBAKE_SOURCE_DIR) / "README.md");
+  std::vector<std::vector<std::string>> rows;
+  bool inSection = false;
+  for (std::string line; std::getline(readme, line);) {
+    if (line.rfind("## ", 0) == 0) inSection = line == "## glTF extensions";
+    if (!inSection || line.rfind("| `", 0) != 0) continue;
+    std::vector<std::string> cells;
+    for (size_t at = 2; at < line.size();) {
+      const size_t end = line.find(" | ", at);
+      cells.push_back(line.substr(at, (end == std::string::npos ? line.size() - 2 : end) - at));
+      at = end == std::string::npos ? line.size() : end + 3;
+    }
+    rows.push_back(cells);
+  }
+  const char* classes[] = {"baked", "kept", "fallback", "approximated", "refused"};
+  const auto& known = radbake::knownExtensions();
+  ASSERT_EQ(rows.size(), known.size());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), 4u) << i;
+    EXPECT_EQ(rows[i][0], "`" + known[i].name + "`");
+    EXPECT_EQ(rows[i][1], classes[int(known[i].use)]) << known[i].name;
+    EXPECT_EQ(rows[i][2], radbake::acceptedWhenRequired(known[i].name) ? "accepted" : "exit 3") << known[i].name;
+    EXPECT_EQ(rows[i][3], known[i].note) << known[i].name;
+  }
+}
+
+
+// ---- KHR_mesh_quantization normals ----
+
+// One triangle whose NORMAL is a normalized BYTE accessor holding `normal` at each vertex.
+std::string byteNormalTriangle(const std::array<int8_t, 3>& normal) {
+  std::vector<float> data{0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0};  // positions, then 3 × 4 normal bytes
+  for (int v = 0; v < 3; ++v) std::memcpy(reinterpret_cast<char*>(&data[9 + v]), normal.data(), 3);
+  return R"({"asset":{"version":"2.0"},"extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"],
+    "scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":1}}]}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                 {"bufferView":1,"componentType":5120,"normalized":true,"count":3,"type":"VEC3"}],
+    "bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":12,"byteStride":4}],
+    "buffers":[{"byteLength":48,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+}
+
+TEST(Quantization, EightBitNormalsWithinTheirRoundingAreKept) {
+  // (0.6, 0.8, 0) in normalized bytes is (76, 102, 0)/127, of length 1.0016: rounding, not a broken
+  // normal (a byte normal may be off by √3 half steps, 0.0068). (0, 120, 0)/127 is off by 0.055.
+  const fs::path dir = tempDir();
+  auto warnings = [&](const std::string& name, const std::array<int8_t, 3>& normal) {
+    std::ofstream(dir / name) << byteNormalTriangle(normal);
+    const RunResult r = radbake({"info", (dir / name).string(), "--json"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    return json::parse(r.out)["warnings"].get<std::vector<std::string>>();
+  };
+  EXPECT_EQ(warnings("byte_normal.gltf", {76, 102, 0}), std::vector<std::string>{});
+  const auto broken = warnings("byte_normal_short.gltf", {0, 120, 0});
+  ASSERT_EQ(broken.size(), 1u);
+  EXPECT_NE(broken[0].find("NORMAL accessor 1 has non-unit or non-finite normals"), std::string::npos) << broken[0];
+}
+
+// ---- EXT_meshopt_compression: gltfpack's output, made at test time ----
+
+const fs::path kGltfpack = fs::path(RADBAKE_TOOLS_DIR) / "node_modules" / "gltfpack" / "cli.js";
+
+// Runs a shell command; its exit status, with stdout and stderr in `log`.
+int runShell(const std::string& command, std::string* log) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) return -1;
+  char buffer[4096];
+  while (fgets(buffer, sizeof buffer, pipe)) *log += buffer;
+  return WEXITSTATUS(pclose(pipe));
+}
+
+// gltfpack (npm, WebAssembly) as users run it: `node cli.js -i IN -o OUT FLAGS`.
+void gltfpack(const fs::path& in, const fs::path& out, const std::string& flags) {
+  std::string log;
+  ASSERT_EQ(runShell("node '" + kGltfpack.string() + "' -i '" + in.string() + "' -o '" + out.string() + "' " + flags, &log), 0) << log;
+  ASSERT_TRUE(fs::exists(out)) << log;
+}
+
+// One baked vertex as written: world position and normal (from the output file itself), its
+// material's name, and its _RADIANCE.
+struct BakedVertex {
+  radbake::Vec3 position, normal;
+  std::string material;
+  radbake::Vec3 L;
+};
+
+std::vector<BakedVertex> bakedVertices(const fs::path& output) {
+  const radbake::Scene scene = radbake::importScene(output.string());
+  tinygltf::Model m;
+  EXPECT_TRUE(loadModel(output, &m));
+  std::vector<BakedVertex> out;
+  for (const radbake::Primitive& prim : scene.primitives) {
+    const std::vector<float> L = radianceOf(m, m.meshes[prim.mesh].primitives[prim.primitive]);
+    EXPECT_EQ(L.size(), 3 * prim.positions.size());
+    for (size_t v = 0; v < prim.positions.size(); ++v)
+      out.push_back({prim.positions[v], prim.normals[v], scene.materials[prim.material].name, {L[3 * v], L[3 * v + 1], L[3 * v + 2]}});
+  }
+  return out;
+}
+
+// Every vertex of `a` against the nearest vertex of `b` with the same material and normal.
+struct VertexComparison {
+  size_t compared = 0;
+  double farthest = 0;    // largest distance to the matched vertex
+  double worstDelta = 0;  // largest |ΔL| of a channel
+  double worstExcess = -1;  // largest |ΔL| − allowed(L) of a channel; ≤ 0 when all are within
+};
+
+VertexComparison compareBakes(const std::vector<BakedVertex>& a, const std::vector<BakedVertex>& b,
+                              const std::function<double(double, double, size_t)>& allowed) {
+  VertexComparison c;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const BakedVertex* best = nullptr;
+    double bestDistance = 1e30;
+    for (const BakedVertex& v : b)
+      if (v.material == a[i].material && radbake::dot(v.normal, a[i].normal) > 0.99) {
+        const double d = radbake::length(v.position - a[i].position);
+        if (d < bestDistance) bestDistance = d, best = &v;
+      }
+    if (!best) {
+      ADD_FAILURE() << "no match for vertex " << i;
+      continue;
+    }
+    ++c.compared;
+    c.farthest = std::max(c.farthest, bestDistance);
+    const double la[3] = {a[i].L.x, a[i].L.y, a[i].L.z}, lb[3] = {best->L.x, best->L.y, best->L.z};
+    for (int k = 0; k < 3; ++k) {
+      c.worstDelta = std::max(c.worstDelta, std::abs(la[k] - lb[k]));
+      c.worstExcess = std::max(c.worstExcess, std::abs(la[k] - lb[k]) - allowed(la[k], lb[k], i * 3 + k));
+    }
+  }
+  return c;
+}
+
+// Two bakes of one geometry whose patches list their corners in another order (gltfpack reorders
+// vertices and merges primitives) agree to the kernels' accuracy, not bit for bit: each K_ij is
+// within 1e-6 of its value (docs/radiosity.md), and interreflection amplifies a relative error by
+// at most 1/(1 − ρmax) = 4.5 in the Cornell box (ρ ≤ 0.78). On top, each _RADIANCE channel is a
+// double rounded to float (2⁻²⁴ relative each); the solver runs to a residual of 1e-12, and 1e-9
+// absolute covers unlit vertices.
+double sameGeometry(double la, double lb, size_t) {
+  const double L = std::max(std::abs(la), std::abs(lb));
+  return 4.6e-6 * L + std::ldexp(L, -23) + 1e-9;
+}
+
+// The JSON chunk of a .glb (tinygltf 2.7 cannot load gltfpack's meshopt files: the fallback buffer).
+json glbJson(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  uint32_t length = 0;
+  std::memcpy(&length, bytes.data() + 12, 4);
+  return json::parse(bytes.substr(20, length));
+}
+
+// The vertices a file holds, as the importer places them (world space, unit normals).
+std::vector<BakedVertex> importedVertices(const fs::path& file) {
+  const radbake::Scene scene = radbake::importScene(file.string());
+  std::vector<BakedVertex> out;
+  for (const radbake::Primitive& prim : scene.primitives)
+    for (size_t v = 0; v < prim.positions.size(); ++v)
+      out.push_back({prim.positions[v], prim.normals[v], scene.materials[prim.material].name, {}});
+  return out;
+}
+
+// Every vertex of `decoded` lies within `maxDistance` of a vertex of `original` of the same
+// material, whose normal is within `maxDegrees` of its own.
+void expectVerticesNear(const std::vector<BakedVertex>& original, const std::vector<BakedVertex>& decoded,
+                        double maxDistance, double maxDegrees, double* farthest, double* widest) {
+  for (const BakedVertex& d : decoded) {
+    const BakedVertex* best = nullptr;
+    for (const BakedVertex& o : original)
+      if (o.material == d.material && radbake::dot(o.normal, d.normal) > 0.9 &&
+          (!best || radbake::length(o.position - d.position) < radbake::length(best->position - d.position)))
+        best = &o;
+    ASSERT_NE(best, nullptr);
+    *farthest = std::max(*farthest, radbake::length(best->position - d.position));
+    *widest = std::max(*widest, std::acos(std::min(1.0, radbake::dot(best->normal, d.normal))) * 180 / kPi);
+  }
+  EXPECT_LE(*farthest, maxDistance);
+  EXPECT_LE(*widest, maxDegrees);
+}
+
+TEST(Meshopt, GltfpackCornellBakesLikeTheOriginal) {
+  if (!fs::exists(kGltfpack)) GTEST_SKIP() << "gltfpack not installed (scripts/setup.sh installs it)";
+  const fs::path dir = tempDir() / "meshopt";
+  fs::create_directories(dir);
+  const fs::path original = fs::path(RADBAKE_SOURCE_DIR) / "examples" / "cornell_box.gltf";
+  const fs::path exact = dir / "cornell_noq.gltf", quantized = dir / "cornell_cc.glb", floatNormals = dir / "cornell_vnf.gltf";
+  const fs::path plain = dir / "cornell_q.gltf";
+  gltfpack(original, exact, "-cc -noq");        // exact float geometry, compressed
+  gltfpack(original, quantized, "-cc");         // the default: 14-bit positions, 8-bit OCTAHEDRAL normals
+  gltfpack(original, floatNormals, "-cc -vnf");  // float normals through the EXPONENTIAL filter
+  gltfpack(original, plain, "");                // the default quantization without meshopt
+  const std::vector<std::string> options{"--subdivide", "2", "--tolerance", "1e-12", "--progress", "none"};
+  auto bake = [&](const fs::path& in) {
+    const fs::path out = dir / (in.stem().string() + "_baked.gltf");
+    std::vector<std::string> args{"bake", in.string(), "-o", out.string()};
+    args.insert(args.end(), options.begin(), options.end());
+    const RunResult r = radbake(args);
+    EXPECT_EQ(r.code, 0) << in << ": " << r.err;
+    EXPECT_EQ(r.err, "") << in;  // no warning: no normal needed repair
+    return out;
+  };
+
+  // The inputs are what the test says they are.
+  for (const fs::path& f : {exact, quantized, floatNormals}) {
+    const RunResult info = radbake({"info", f.string(), "--json"});
+    ASSERT_EQ(info.code, 0) << info.err;
+    const json used = json::parse(info.out)["extensionsUsed"];
+    EXPECT_NE(std::find(used.begin(), used.end(), "EXT_meshopt_compression"), used.end()) << info.out;
+    EXPECT_EQ(std::find(used.begin(), used.end(), "KHR_mesh_quantization") != used.end(), f != exact) << info.out;
+  }
+  EXPECT_EQ(readJson(plain)["extensionsUsed"], json({"KHR_mesh_quantization", "KHR_materials_emissive_strength"}));
+
+  // Decoded geometry against the original file's. Positions snap to a grid of step s, the node
+  // scale gltfpack writes (14 bits over the box's largest extent, 559.2 mm): a vertex moves at most
+  // √3·s/2. An 8-bit octahedral normal is off by at most 0.94°: half a step (1/127) in each
+  // octahedral coordinate, stretched up to √3 onto the sphere (0.55°), then each component rounded
+  // to 1/127 again (√3 × half a step, 0.39°). The EXPONENTIAL filter keeps 8 mantissa bits at -vn 8.
+  const double step = glbJson(quantized)["nodes"][0]["scale"][0].get<double>();
+  EXPECT_NEAR(step, 0.5592 / 16383, 1e-9);
+  const std::vector<BakedVertex> originalVertices = importedVertices(original);
+  double farthest = 0, widest = 0;
+  expectVerticesNear(originalVertices, importedVertices(exact), 0, 1e-5, &farthest, &widest);  // acos near 1: 1e-8 rad of noise
+  double moved = 0, turned = 0;
+  expectVerticesNear(originalVertices, importedVertices(quantized), std::sqrt(3.0) * step / 2, 0.94, &moved, &turned);
+  double movedVnf = 0, turnedVnf = 0;
+  expectVerticesNear(originalVertices, importedVertices(floatNormals), std::sqrt(3.0) * step / 2, 0.94, &movedVnf, &turnedVnf);
+
+  const fs::path bakedOriginal = bake(original), bakedExact = bake(exact), bakedQuantized = bake(quantized);
+  const fs::path bakedPlain = bake(plain);
+  // The outputs are plain glTF: no meshopt left, and valid.
+  for (const fs::path& f : {bakedExact, bakedQuantized}) {
+    const json out = readJson(f);
+    for (const char* list : {"extensionsUsed", "extensionsRequired"})
+      for (const auto& ext : out.value(list, json::array())) EXPECT_NE(ext, "EXT_meshopt_compression") << f;
+    for (const auto& view : out["bufferViews"]) EXPECT_FALSE(view.contains("extensions")) << f;
+  }
+  if (validatorAvailable()) {
+    std::string log;
+    EXPECT_EQ(runValidator({bakedExact, bakedQuantized}, &log), 0) << log;
+  }
+
+  // -noq: the same geometry (gltfpack merges the primitives of a material and drops duplicate
+  // vertices, so vertices are matched by position); the radiance agrees as bakes of one geometry do.
+  const std::vector<BakedVertex> reference = bakedVertices(bakedOriginal);
+  const VertexComparison exactCmp = compareBakes(reference, bakedVertices(bakedExact), sameGeometry);
+  EXPECT_GT(exactCmp.compared, 200u);
+  EXPECT_EQ(exactCmp.farthest, 0.0);
+  EXPECT_LE(exactCmp.worstExcess, 0.0) << "max |dL| " << exactCmp.worstDelta;
+
+  // The default: what quantizing alone does to the light is measured on gltfpack's output without
+  // -c (KHR_mesh_quantization read by the plain accessor path: the same position grid, normals
+  // rounded per component to 8 bits, ≤ 0.39°). The compressed file has the same positions and
+  // normals off by a like amount (≤ 0.94°, octahedral); its light may differ from the original's
+  // by up to twice the worst difference quantizing alone makes, plus the bake's own agreement.
+  const VertexComparison quantizationCmp = compareBakes(reference, bakedVertices(bakedPlain), [](double, double, size_t) { return 1e30; });
+  const VertexComparison quantizedCmp = compareBakes(reference, bakedVertices(bakedQuantized), [&](double la, double lb, size_t k) {
+    return 2 * quantizationCmp.worstDelta + sameGeometry(la, lb, k);
+  });
+  EXPECT_LE(quantizedCmp.farthest, std::sqrt(3.0) * step / 2);
+  EXPECT_LE(quantizedCmp.worstExcess, 0.0) << quantizedCmp.worstDelta;
+
+  double largest = 0;
+  for (const BakedVertex& v : reference) largest = std::max({largest, v.L.x, v.L.y, v.L.z});
+  std::cout << "meshopt: -cc -noq vs original: max |dL| " << exactCmp.worstDelta << "\n"
+            << "meshopt: -cc (grid step " << step << " m): vertices moved up to " << moved << " m, normals turned up to "
+            << turned << " deg (-vnf: " << turnedVnf << " deg); max |dL| vs original " << quantizedCmp.worstDelta
+            << ", quantizing alone (no -c) " << quantizationCmp.worstDelta << "; largest L " << largest << "\n";
+}
+
+TEST(Meshopt, CorruptOrOversizedStreamsAreOneLineExit2) {
+  if (!fs::exists(kGltfpack)) GTEST_SKIP() << "gltfpack not installed (scripts/setup.sh installs it)";
+  const fs::path dir = tempDir() / "meshopt_bad";
+  fs::create_directories(dir);
+  const fs::path packed = dir / "packed.gltf";
+  gltfpack(fs::path(RADBAKE_SOURCE_DIR) / "examples" / "cornell_box.gltf", packed, "-cc");
+  const json doc = readJson(packed);
+  std::ifstream binFile(dir / doc["buffers"][0]["uri"].get<std::string>(), std::ios::binary);
+  const std::string bin((std::istreambuf_iterator<char>(binFile)), {});
+  // A broken copy: its JSON and its .bin under a new name; bakes it, expecting exit 2 and exactly
+  // "error: NAME.gltf: buffer view N EXT_meshopt_compression: " followed by `problem` (or anything,
+  // when `problem` is empty), and no output.
+  auto expectBroken = [&](const std::string& name, json broken, const std::string& bytes, size_t view, const std::string& problem) {
+    SCOPED_TRACE(name);
+    broken["buffers"][0]["uri"] = name + ".bin";
+    std::ofstream(dir / (name + ".bin"), std::ios::binary) << bytes;
+    std::ofstream(dir / (name + ".gltf")) << broken.dump();
+    const fs::path out = dir / (name + "_out.glb");
+    const RunResult r = radbake({"bake", (dir / (name + ".gltf")).string(), "-o", out.string(), "--progress", "none"});
+    EXPECT_EQ(r.code, 2) << r.err;
+    const std::string prefix = "error: " + name + ".gltf: buffer view " + std::to_string(view) + " EXT_meshopt_compression: ";
+    EXPECT_EQ(r.err.rfind(prefix, 0), 0u) << r.err;
+    if (!problem.empty()) {
+      EXPECT_EQ(r.err, prefix + problem + "\n");
+    }
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  };
+  // Every byte of one compressed stream flipped: each stream's header stops matching its codec.
+  size_t streams = 0;
+  for (size_t v = 0; v < doc["bufferViews"].size(); ++v) {
+    const json& ext = doc["bufferViews"][v]["extensions"]["EXT_meshopt_compression"];
+    std::string flipped = bin;
+    for (size_t i = 0; i < ext["byteLength"].get<size_t>(); ++i) flipped[ext.value("byteOffset", size_t(0)) + i] ^= char(0xFF);
+    const std::string mode = ext["mode"].get<std::string>();
+    expectBroken("flipped" + std::to_string(v), doc, flipped, v,
+                 "the " + mode + " data is corrupt (meshoptimizer cannot decode it, code -1)");
+    ++streams;
+  }
+  EXPECT_GE(streams, 3u);  // positions, normals, indices
+  // A stream cut one byte short.
+  json cut = doc;
+  cut["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["byteLength"] =
+      doc["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["byteLength"].get<int>() - 1;
+  expectBroken("cut", cut, bin, 0, "");
+  // Sizes are checked before anything is allocated: a count that does not fill the view, and
+  // 4 GB claimed from a few hundred bytes.
+  json miscounted = doc;
+  auto& ext = miscounted["bufferViews"][0]["extensions"]["EXT_meshopt_compression"];
+  const int stride = ext["byteStride"].get<int>(), count = ext["count"].get<int>();
+  ext["count"] = count + 1;
+  expectBroken("miscounted", miscounted, bin, 0,
+               "count " + std::to_string(count + 1) + " × byteStride " + std::to_string(stride) +
+                   " is not the buffer view's byteLength " + std::to_string(count * stride));
+  json huge = doc;
+  const uint64_t claimed = 500000000ull * stride;
+  huge["bufferViews"][0]["byteLength"] = claimed;
+  huge["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["count"] = 500000000;
+  huge["buffers"][1]["byteLength"] = claimed + 4096;
+  const int compressed = huge["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["byteLength"].get<int>();
+  expectBroken("huge", huge, bin, 0,
+               std::to_string(compressed) + " compressed bytes cannot hold " + std::to_string(claimed) + " bytes");
+}
+
+
+TEST(Meshopt, FallbackBuffersAreNotNeededAndKhrMeshoptReadsItsFallback) {
+  if (!fs::exists(kGltfpack)) GTEST_SKIP() << "gltfpack not installed (scripts/setup.sh installs it)";
+  const fs::path dir = tempDir() / "meshopt_fallback";
+  fs::create_directories(dir);
+  const fs::path original = fs::path(RADBAKE_SOURCE_DIR) / "examples" / "cornell_box.gltf";
+  auto bakeClean = [&](const fs::path& in, const char* extension) {
+    SCOPED_TRACE(in.string());
+    const fs::path out = dir / (in.stem().string() + "_baked.gltf");
+    const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--progress", "none"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    EXPECT_EQ(readJson(out).dump().find(extension), std::string::npos);
+    return out;
+  };
+  // -cf: the uncompressed data also goes to a fallback file; radbake decodes and never opens it.
+  const fs::path withFallback = dir / "cornell_cf.gltf";
+  gltfpack(original, withFallback, "-c -cf");
+  ASSERT_TRUE(fs::remove(dir / "cornell_cf.fallback.bin"));
+  const fs::path a = bakeClean(withFallback, "meshopt");
+  // KHR_meshopt_compression (draft) only used, with a fallback: radbake reads the fallback data.
+  const fs::path khr = dir / "cornell_khr.gltf";
+  gltfpack(original, khr, "-c -cf -ce khr");
+  const fs::path b = bakeClean(khr, "meshopt");
+  if (validatorAvailable()) {
+    std::string log;
+    EXPECT_EQ(runValidator({a, b}, &log), 0) << log;
+  }
+  // Required (no fallback data), it is refused.
+  const fs::path khrRequired = dir / "cornell_khr_required.gltf", none = dir / "none.glb";
+  gltfpack(original, khrRequired, "-c -ce khr");
+  const RunResult r = radbake({"bake", khrRequired.string(), "-o", none.string()});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_EQ(r.err, "error: cornell_khr_required.gltf: requires extension KHR_meshopt_compression, which radbake does not support\n");
+  EXPECT_FALSE(fs::exists(none));
 }
 
 }  // namespace
