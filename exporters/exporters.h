@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/core.h"
 #include "importers/importers.h"
 #include "tessellate/tessellate.h"
 

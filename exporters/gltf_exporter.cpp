@@ -3,13 +3,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <numbers>
 #include <set>
 #include <sstream>
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
+#include "core/core.h"
 #include "exporters/exporters.h"
 #include "exporters/image_files.h"
 #include "exporters/lightmap.h"
@@ -18,7 +18,6 @@
 namespace radbake {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
 
@@ -190,31 +189,6 @@ void makeUnlit(tinygltf::Material& material) {
   material.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object{});
 }
 
-// Determinant of the 3×3 part of a column-major 4×4 matrix: negative for a mirroring node.
-double determinant3(const std::array<double, 16>& m) {
-  return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
-}
-
-// Inverse of an affine column-major 4×4 matrix (node to world), by the 3×3 adjugate.
-std::array<double, 16> invertAffine(const std::array<double, 16>& m) {
-  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
-  const double det = determinant3(m);
-  const double r[9] = {(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det,
-                       (f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det,
-                       (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det};  // row-major
-  std::array<double, 16> out{r[0], r[3], r[6], 0, r[1], r[4], r[7], 0, r[2], r[5], r[8], 0, 0, 0, 0, 1};
-  const double tx = m[12], ty = m[13], tz = m[14];
-  out[12] = -(r[0] * tx + r[1] * ty + r[2] * tz);
-  out[13] = -(r[3] * tx + r[4] * ty + r[5] * tz);
-  out[14] = -(r[6] * tx + r[7] * ty + r[8] * tz);
-  return out;
-}
-
-Vec3 applyAffine(const std::array<double, 16>& m, const Vec3& p) {
-  return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
-          m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
-}
-
 // The tessellated primitive: every attribute of the source interpolated at the new vertices
 // (barycentric on the source triangle; integer sets such as JOINTS_n from the nearest corner).
 tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Primitive& source, const Primitive& prim,
@@ -257,7 +231,7 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
     const auto inverse = invertAffine(prim.world);
     std::vector<float> positions, normals;
     for (size_t v = 0; v < patches.positions.size(); ++v) {
-      const Vec3 p = applyAffine(inverse, patches.positions[v]);
+      const Vec3 p = transformPoint(inverse, patches.positions[v]);
       // Normals go back by the transpose of the world matrix (the inverse of its inverse transpose).
       const auto& w = prim.world;
       const Vec3& n = patches.normals[v];

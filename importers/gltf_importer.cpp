@@ -13,6 +13,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/core.h"
 #include "importers/gltf_document.h"
 #include "importers/gltf_schema.h"
 #include "importers/importers.h"
@@ -22,8 +23,6 @@
 
 namespace radbake {
 namespace {
-
-using Matrix4 = std::array<double, 16>;  // column-major, as glTF stores it
 
 constexpr Matrix4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 // A NORMAL this far from unit length is repaired (flat normal) with a warning.
@@ -265,11 +264,6 @@ Matrix4 localMatrix(const tinygltf::Node& node) {
           r02 * sz, r12 * sz, r22 * sz, 0, tx, ty, tz, 1};
 }
 
-Vec3 transformPoint(const Matrix4& m, const Vec3& p) {
-  return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
-          m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
-}
-
 // Normals transform by the inverse transpose of the upper 3×3 (its cofactor matrix, up to the
 // positive or negative scale that normalization removes; the sign is fixed by the determinant).
 struct NormalMatrix {
@@ -279,7 +273,7 @@ struct NormalMatrix {
 
 NormalMatrix normalMatrix(const Matrix4& m) {
   const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
-  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  const double det = determinant3(m);
   std::array<double, 9> cof{e * i - f * h, -(d * i - f * g), d * h - e * g,
                             -(b * i - c * h), a * i - c * g, -(a * h - b * g),
                             b * f - c * e, -(a * f - c * d), a * e - b * d};

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "core/core.h"
 #include "exporters/exporters.h"
 #include "importers/importers.h"
 #include "radiosity/radiosity.h"
