@@ -1,5 +1,6 @@
 // core: what every stage uses (DESIGN.md "Layout"). Geometry (Vec3, Bounds, the affine transforms
-// of glTF nodes, π) and the Error every stage throws with the command line's exit codes.
+// of glTF nodes, π), the Error every stage throws with the command line's exit codes, atomic file
+// writes, the sRGB transfer function and file-extension lowercasing.
 //
 // It depends on nothing of radbake's, so any stage may include it without pulling in another
 // stage; stages include each other only for the data that flows between them (Scene, PatchMesh,
@@ -11,6 +12,8 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace radbake {
 
@@ -98,5 +101,30 @@ class Error : public std::runtime_error {
  private:
   ExitCode code_;
 };
+
+// ---- Files ---------------------------------------------------------------------------------
+
+// Writes `bytes` to `path` atomically: a temporary file beside it, then rename.
+void writeFileAtomically(const std::string& path, const std::string& bytes);
+
+// Writes several files all or nothing: every temporary first, then the renames; on any failure
+// nothing of them is left behind (Error kCannotWrite naming the file).
+void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files);
+
+// The extension of `path` with its dot, lowercased ("a/B.GLB" → ".glb"; "" without one): what
+// decides a file's format.
+std::string lowerExtension(const std::string& path);
+
+// ---- Color ---------------------------------------------------------------------------------
+
+// The sRGB transfer function (IEC 61966-2-1), code value → linear. A template so that each caller
+// keeps its precision: the exporter decodes in double, the texture decoder fills a float table.
+template <typename T>
+T srgbDecode(T code) {
+  return code <= T(0.04045) ? code / T(12.92) : std::pow((code + T(0.055)) / T(1.055), T(2.4));
+}
+
+// The sRGB transfer function, linear → code value.
+double srgbEncode(double linear);
 
 }  // namespace radbake

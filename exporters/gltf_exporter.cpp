@@ -1,11 +1,8 @@
 #include <algorithm>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
-#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
@@ -20,12 +17,6 @@ namespace {
 
 constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
-
-std::string lowerExtension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
 
 std::string mimeTypeOf(const tinygltf::Image& image) {
   if (!image.mimeType.empty()) return image.mimeType;
@@ -620,38 +611,6 @@ std::string serialize(tinygltf::Model& m, bool binary, bool pretty) {
 }
 
 }  // namespace
-
-void writeFileAtomically(const std::string& path, const std::string& bytes) { writeFilesAtomically({{path, bytes}}); }
-
-void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files) {
-  namespace fs = std::filesystem;
-  std::vector<fs::path> temps;
-  std::error_code ec;
-  auto fail = [&](const std::string& path, const std::string& why, size_t renamed) {
-    for (size_t i = renamed; i < temps.size(); ++i) fs::remove(temps[i], ec);
-    for (size_t i = 0; i < renamed; ++i) fs::remove(files[i].first, ec);  // all or nothing
-    throw Error(ExitCode::kCannotWrite, path + ": cannot write: " + why);
-  };
-  for (const auto& [path, bytes] : files) {
-    const fs::path target(path);
-    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    if (!fs::is_directory(dir, ec)) fail(path, "directory " + dir.string() + " does not exist", 0);
-    std::string tempName = ".";
-    tempName += target.filename().string();
-    tempName += ".radbake-";
-    tempName += std::to_string(::getpid());
-    tempName += ".tmp";
-    temps.push_back(dir / tempName);
-    std::ofstream out(temps.back(), std::ios::binary | std::ios::trunc);
-    if (out) out.write(bytes.data(), std::streamsize(bytes.size()));
-    if (out) out.close();
-    if (!out) fail(path, std::strerror(errno), 0);
-  }
-  for (size_t i = 0; i < files.size(); ++i) {
-    fs::rename(temps[i], files[i].first, ec);
-    if (ec) fail(files[i].first, ec.message(), i);
-  }
-}
 
 ExportSummary writeGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
                         const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance,

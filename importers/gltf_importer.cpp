@@ -688,9 +688,7 @@ bool Scene::hasEmitter() const {
 }
 
 Scene importScene(const std::string& path, const ImportOptions& options) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".bpt") return importBezierPatches(path);
+  if (lowerExtension(path) == ".bpt") return importBezierPatches(path);
   std::vector<std::string> unused;
   std::string name = std::filesystem::path(path).filename().string();
   const std::vector<unsigned char> bytes = readFile(Context{name.empty() ? path : name, &unused}, path);

@@ -72,13 +72,6 @@ class Progress {
   bool barOpen_ = false;
 };
 
-std::string lowerExtension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
-
 nlohmann::json vec3Json(const Vec3& v) { return {v.x, v.y, v.z}; }
 
 // --sky R,G,B (or one number for grey): non-negative finite radiance.
