@@ -51,14 +51,7 @@ int appendFloatAccessor(tinygltf::Model& m, const std::vector<float>& values, in
   acc.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
   acc.type = type;
   acc.count = values.size() / components;
-  if (withBounds && acc.count > 0) {
-    acc.minValues.assign(components, std::numeric_limits<double>::infinity());
-    acc.maxValues.assign(components, -std::numeric_limits<double>::infinity());
-    for (size_t i = 0; i < values.size(); ++i) {
-      acc.minValues[i % components] = std::min<double>(acc.minValues[i % components], values[i]);
-      acc.maxValues[i % components] = std::max<double>(acc.maxValues[i % components], values[i]);
-    }
-  }
+  if (withBounds && acc.count > 0) setAccessorBounds(acc, values, components);
   m.accessors.push_back(acc);
   return int(m.accessors.size()) - 1;
 }

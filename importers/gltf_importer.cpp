@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -804,6 +805,15 @@ namespace radbake {
 std::vector<double> readAccessorValues(const tinygltf::Model& model, int index) {
   std::vector<std::string> unused;
   return readAccessor(Context{"", &unused}, model, index, "accessor");
+}
+
+void setAccessorBounds(tinygltf::Accessor& accessor, const std::vector<float>& values, int components) {
+  accessor.minValues.assign(components, std::numeric_limits<double>::infinity());
+  accessor.maxValues.assign(components, -std::numeric_limits<double>::infinity());
+  for (size_t i = 0; i < values.size(); ++i) {
+    accessor.minValues[i % components] = std::min<double>(accessor.minValues[i % components], values[i]);
+    accessor.maxValues[i % components] = std::max<double>(accessor.maxValues[i % components], values[i]);
+  }
 }
 
 }  // namespace radbake
