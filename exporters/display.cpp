@@ -191,12 +191,4 @@ std::vector<Vec3> toDisplay(const DisplayShaping& shaping, const std::vector<Vec
   return out;
 }
 
-double srgbDecode(double code) {
-  return code <= 0.04045 ? code / 12.92 : std::pow((code + 0.055) / 1.055, 2.4);
-}
-
-double srgbEncode(double linear) {
-  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
-}
-
 }  // namespace radbake

@@ -8,9 +8,9 @@
 
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
+#include "core/core.h"
 #include "importers/importers.h"
 #include "tessellate/tessellate.h"
 
@@ -43,10 +43,6 @@ DisplayShaping resolveDisplay(const DisplayOptions& options, const std::vector<V
 
 // Scene-linear radiance → display code values in [0,1] (for the built-in display: sRGB encoded).
 std::vector<Vec3> toDisplay(const DisplayShaping& shaping, const std::vector<Vec3>& radiance);
-
-// The sRGB transfer function (IEC 61966-2-1), both ways.
-double srgbDecode(double code);
-double srgbEncode(double linear);
 
 // --lightmap: the light goes into an HDR texture atlas instead of COLOR_0 (docs/lightmaps.md).
 struct LightmapOptions {
@@ -89,12 +85,5 @@ struct ExportSummary {
 ExportSummary writeGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
                         const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance = {},
                         const ExportOptions& options = {});
-
-// Writes `bytes` to `path` atomically: a temporary file beside it, then rename.
-void writeFileAtomically(const std::string& path, const std::string& bytes);
-
-// Writes several files all or nothing: every temporary first, then the renames; on any failure
-// nothing of them is left behind (Error kCannotWrite naming the file).
-void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files);
 
 }  // namespace radbake

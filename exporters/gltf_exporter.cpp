@@ -1,15 +1,12 @@
 #include <algorithm>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
-#include <numbers>
 #include <set>
 #include <sstream>
-#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
+#include "core/core.h"
 #include "exporters/exporters.h"
 #include "exporters/image_files.h"
 #include "exporters/lightmap.h"
@@ -18,15 +15,8 @@
 namespace radbake {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
-
-std::string lowerExtension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
 
 std::string mimeTypeOf(const tinygltf::Image& image) {
   if (!image.mimeType.empty()) return image.mimeType;
@@ -61,14 +51,7 @@ int appendFloatAccessor(tinygltf::Model& m, const std::vector<float>& values, in
   acc.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
   acc.type = type;
   acc.count = values.size() / components;
-  if (withBounds && acc.count > 0) {
-    acc.minValues.assign(components, std::numeric_limits<double>::infinity());
-    acc.maxValues.assign(components, -std::numeric_limits<double>::infinity());
-    for (size_t i = 0; i < values.size(); ++i) {
-      acc.minValues[i % components] = std::min<double>(acc.minValues[i % components], values[i]);
-      acc.maxValues[i % components] = std::max<double>(acc.maxValues[i % components], values[i]);
-    }
-  }
+  if (withBounds && acc.count > 0) setAccessorBounds(acc, values, components);
   m.accessors.push_back(acc);
   return int(m.accessors.size()) - 1;
 }
@@ -190,31 +173,6 @@ void makeUnlit(tinygltf::Material& material) {
   material.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object{});
 }
 
-// Determinant of the 3×3 part of a column-major 4×4 matrix: negative for a mirroring node.
-double determinant3(const std::array<double, 16>& m) {
-  return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
-}
-
-// Inverse of an affine column-major 4×4 matrix (node to world), by the 3×3 adjugate.
-std::array<double, 16> invertAffine(const std::array<double, 16>& m) {
-  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
-  const double det = determinant3(m);
-  const double r[9] = {(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det,
-                       (f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det,
-                       (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det};  // row-major
-  std::array<double, 16> out{r[0], r[3], r[6], 0, r[1], r[4], r[7], 0, r[2], r[5], r[8], 0, 0, 0, 0, 1};
-  const double tx = m[12], ty = m[13], tz = m[14];
-  out[12] = -(r[0] * tx + r[1] * ty + r[2] * tz);
-  out[13] = -(r[3] * tx + r[4] * ty + r[5] * tz);
-  out[14] = -(r[6] * tx + r[7] * ty + r[8] * tz);
-  return out;
-}
-
-Vec3 applyAffine(const std::array<double, 16>& m, const Vec3& p) {
-  return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
-          m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
-}
-
 // The tessellated primitive: every attribute of the source interpolated at the new vertices
 // (barycentric on the source triangle; integer sets such as JOINTS_n from the nearest corner).
 tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Primitive& source, const Primitive& prim,
@@ -257,7 +215,7 @@ tinygltf::Primitive tessellatedPrimitive(tinygltf::Model& m, const tinygltf::Pri
     const auto inverse = invertAffine(prim.world);
     std::vector<float> positions, normals;
     for (size_t v = 0; v < patches.positions.size(); ++v) {
-      const Vec3 p = applyAffine(inverse, patches.positions[v]);
+      const Vec3 p = transformPoint(inverse, patches.positions[v]);
       // Normals go back by the transpose of the world matrix (the inverse of its inverse transpose).
       const auto& w = prim.world;
       const Vec3& n = patches.normals[v];
@@ -646,38 +604,6 @@ std::string serialize(tinygltf::Model& m, bool binary, bool pretty) {
 }
 
 }  // namespace
-
-void writeFileAtomically(const std::string& path, const std::string& bytes) { writeFilesAtomically({{path, bytes}}); }
-
-void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files) {
-  namespace fs = std::filesystem;
-  std::vector<fs::path> temps;
-  std::error_code ec;
-  auto fail = [&](const std::string& path, const std::string& why, size_t renamed) {
-    for (size_t i = renamed; i < temps.size(); ++i) fs::remove(temps[i], ec);
-    for (size_t i = 0; i < renamed; ++i) fs::remove(files[i].first, ec);  // all or nothing
-    throw Error(ExitCode::kCannotWrite, path + ": cannot write: " + why);
-  };
-  for (const auto& [path, bytes] : files) {
-    const fs::path target(path);
-    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    if (!fs::is_directory(dir, ec)) fail(path, "directory " + dir.string() + " does not exist", 0);
-    std::string tempName = ".";
-    tempName += target.filename().string();
-    tempName += ".radbake-";
-    tempName += std::to_string(::getpid());
-    tempName += ".tmp";
-    temps.push_back(dir / tempName);
-    std::ofstream out(temps.back(), std::ios::binary | std::ios::trunc);
-    if (out) out.write(bytes.data(), std::streamsize(bytes.size()));
-    if (out) out.close();
-    if (!out) fail(path, std::strerror(errno), 0);
-  }
-  for (size_t i = 0; i < files.size(); ++i) {
-    fs::rename(temps[i], files[i].first, ec);
-    if (ec) fail(files[i].first, ec.message(), i);
-  }
-}
 
 ExportSummary writeGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
                         const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance,

@@ -6,7 +6,7 @@
 #include <limits>
 #include <numeric>
 
-#include "importers/importers.h"
+#include "core/core.h"
 
 namespace radbake {
 namespace {

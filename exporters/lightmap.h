@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "importers/vec3.h"
+#include "core/core.h"
 
 namespace radbake {
 

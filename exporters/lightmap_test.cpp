@@ -15,7 +15,7 @@
 #include <set>
 #include <string>
 
-#include "importers/importers.h"
+#include "core/core.h"
 
 namespace radbake {
 namespace {

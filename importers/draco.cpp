@@ -9,7 +9,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <limits>
+
+#include "importers/gltf_document.h"
 
 namespace radbake {
 namespace {
@@ -161,15 +162,8 @@ std::string decodeDracoPrimitives(tinygltf::Model& m) {
         // data now in the buffer (float accessors; integer ones lose them, where they are optional).
         acc.minValues.clear();
         acc.maxValues.clear();
-        if (acc.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT && mesh.points > 0) {
-          acc.minValues.assign(components, std::numeric_limits<double>::infinity());
-          acc.maxValues.assign(components, -std::numeric_limits<double>::infinity());
-          const auto& values = found->second.second;
-          for (size_t i = 0; i < values.size(); ++i) {
-            acc.minValues[i % components] = std::min<double>(acc.minValues[i % components], values[i]);
-            acc.maxValues[i % components] = std::max<double>(acc.maxValues[i % components], values[i]);
-          }
-        }
+        if (acc.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT && mesh.points > 0)
+          setAccessorBounds(acc, found->second.second, int(components));
       }
       alignTo4(decoded);
       tinygltf::BufferView iv;

@@ -19,4 +19,8 @@ namespace radbake {
 // sparse substitution applied). The importer has already checked every byte range it covers.
 std::vector<double> readAccessorValues(const tinygltf::Model& model, int index);
 
+// Sets the accessor's min and max to the per-component bounds of `values` (count × components
+// floats): what glTF requires on POSITION, and exact for the data a writer has just stored.
+void setAccessorBounds(tinygltf::Accessor& accessor, const std::vector<float>& values, int components);
+
 }  // namespace radbake

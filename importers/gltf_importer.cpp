@@ -9,10 +9,12 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
 
+#include "core/core.h"
 #include "importers/gltf_document.h"
 #include "importers/gltf_schema.h"
 #include "importers/importers.h"
@@ -24,8 +26,6 @@
 
 namespace radbake {
 namespace {
-
-using Matrix4 = std::array<double, 16>;  // column-major, as glTF stores it
 
 constexpr Matrix4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 // A NORMAL this far from unit length is repaired (flat normal) with a warning.
@@ -277,11 +277,6 @@ Matrix4 localMatrix(const tinygltf::Node& node) {
           r02 * sz, r12 * sz, r22 * sz, 0, tx, ty, tz, 1};
 }
 
-Vec3 transformPoint(const Matrix4& m, const Vec3& p) {
-  return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
-          m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
-}
-
 // Normals transform by the inverse transpose of the upper 3×3 (its cofactor matrix, up to the
 // positive or negative scale that normalization removes; the sign is fixed by the determinant).
 struct NormalMatrix {
@@ -291,7 +286,7 @@ struct NormalMatrix {
 
 NormalMatrix normalMatrix(const Matrix4& m) {
   const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
-  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  const double det = determinant3(m);
   std::array<double, 9> cof{e * i - f * h, -(d * i - f * g), d * h - e * g,
                             -(b * i - c * h), a * i - c * g, -(a * h - b * g),
                             b * f - c * e, -(a * f - c * d), a * e - b * d};
@@ -709,9 +704,7 @@ bool Scene::hasEmitter() const {
 }
 
 Scene importScene(const std::string& path, const ImportOptions& options) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".bpt") return importBezierPatches(path);
+  if (lowerExtension(path) == ".bpt") return importBezierPatches(path);
   std::vector<std::string> unused;
   std::string name = std::filesystem::path(path).filename().string();
   const std::vector<unsigned char> bytes = readFile(Context{name.empty() ? path : name, &unused}, path);
@@ -835,6 +828,15 @@ namespace radbake {
 std::vector<double> readAccessorValues(const tinygltf::Model& model, int index) {
   std::vector<std::string> unused;
   return readAccessor(Context{"", &unused}, model, index, "accessor");
+}
+
+void setAccessorBounds(tinygltf::Accessor& accessor, const std::vector<float>& values, int components) {
+  accessor.minValues.assign(components, std::numeric_limits<double>::infinity());
+  accessor.maxValues.assign(components, -std::numeric_limits<double>::infinity());
+  for (size_t i = 0; i < values.size(); ++i) {
+    accessor.minValues[i % components] = std::min<double>(accessor.minValues[i % components], values[i]);
+    accessor.maxValues[i % components] = std::max<double>(accessor.maxValues[i % components], values[i]);
+  }
 }
 
 }  // namespace radbake

@@ -8,32 +8,12 @@
 #include <array>
 #include <cstdint>
 #include <memory>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "importers/vec3.h"
+#include "core/core.h"
 
 namespace radbake {
-
-// Exit codes of the command line, shared by every stage that can fail (DESIGN.md).
-enum class ExitCode : int {
-  kOk = 0,
-  kUsage = 1,
-  kInvalidInput = 2,
-  kUnsupported = 3,
-  kCannotWrite = 4,
-};
-
-// A failure that ends the run: one line naming the file and the element, and the exit code.
-class Error : public std::runtime_error {
- public:
-  Error(ExitCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
-  ExitCode code() const { return code_; }
-
- private:
-  ExitCode code_;
-};
 
 // A decoded color texture: linear RGB (sRGB decoded, as glTF color textures are), rows top first.
 struct Texture {
@@ -78,7 +58,7 @@ struct Primitive {
   bool hasNormals = false;                           // whether NORMAL came from the file
   std::vector<std::array<uint32_t, 3>> triangles;    // indices into positions
   std::vector<std::vector<std::array<double, 2>>> texcoords;  // TEXCOORD_n, per vertex (sets the material uses)
-  std::array<double, 16> world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // node to world, column-major
+  Matrix4 world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // node to world
   // A subdivision surface: these triangles (paired into quads where coplanar) are its cage.
   // From "extras": {"subdivision": {"scheme": "catmull-clark" | "loop"}} on the mesh or node.
   SubdivisionScheme subdivision = SubdivisionScheme::kNone;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/core.h"
 #include "importers/importers.h"
 #include "importers/texture.h"
 
@@ -12,9 +13,6 @@ namespace {
 
 constexpr int kClampToEdge = 33071;
 constexpr int kMirroredRepeat = 33648;
-
-// sRGB transfer function, decoded to linear (IEC 61966-2-1).
-float srgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
 int wrap(int i, int n, int mode) {
   if (mode == kClampToEdge) return std::clamp(i, 0, n - 1);
@@ -44,7 +42,7 @@ bool decodeColorTexture(const std::vector<unsigned char>& encoded, Texture& out,
   out.rgb.resize(size_t(w) * h * 3);
   out.alpha.resize(size_t(w) * h);
   float table[256];
-  for (int i = 0; i < 256; ++i) table[i] = srgbToLinear(i / 255.0f);
+  for (int i = 0; i < 256; ++i) table[i] = srgbDecode<float>(i / 255.0f);
   for (size_t i = 0; i < out.alpha.size(); ++i) {
     for (int c = 0; c < 3; ++c) out.rgb[3 * i + c] = table[pixels[4 * i + c]];
     out.alpha[i] = pixels[4 * i + 3] / 255.0f;  // alpha is linear in glTF

@@ -6,10 +6,10 @@
 #include <numeric>
 #include <tuple>
 
+#include "core/core.h"
+
 namespace radbake {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct PointKey {
   double x, y, z;

@@ -7,8 +7,6 @@
 namespace radbake {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // A point closer than this (relative to the polygon's size) to the polygon's
 // plane counts as "in the plane", and as "on the boundary" when that close to
 // an edge. Shared vertices come from the same float data, so a vertex on a

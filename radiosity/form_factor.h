@@ -24,7 +24,7 @@
 
 #include <array>
 
-#include "importers/vec3.h"
+#include "core/core.h"
 
 namespace radbake {
 

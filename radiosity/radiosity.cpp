@@ -13,6 +13,7 @@
 #include <span>
 #include <tuple>
 
+#include "core/core.h"
 #include "radiosity/enclosure.h"
 #include "radiosity/form_factor.h"
 #include "radiosity/visibility.h"
@@ -20,7 +21,6 @@
 namespace radbake {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 // Where visibility is first probed on a patch, in (s, t): its centre and four inner points.
 constexpr double kProbe[5][2] = {{0, 0}, {-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
 

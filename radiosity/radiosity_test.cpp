@@ -476,9 +476,8 @@ Primitive quadPrimitive(const std::array<Vec3, 4>& c, int material) {
 // point has the rectangle's corner at signed offsets (a, b): the classic corner formula, odd in a
 // and in b, so any foot point follows by inclusion–exclusion.
 double cornerFactor(double a, double b, double h) {
-  const double pi = 3.14159265358979323846;
   const double ra = std::sqrt(a * a + h * h), rb = std::sqrt(b * b + h * h);
-  return (a / ra * std::atan(b / ra) + b / rb * std::atan(a / rb)) / (2 * pi);
+  return (a / ra * std::atan(b / ra) + b / rb * std::atan(a / rb)) / (2 * kPi);
 }
 
 double parallelRectangleFactor(double x, double z, double x0, double x1, double z0, double z1, double h) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/core.h"
 #include "importers/importers.h"
 
 namespace radbake {

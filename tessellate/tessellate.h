@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/core.h"
 #include "importers/importers.h"
 
 namespace radbake {

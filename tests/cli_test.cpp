@@ -19,6 +19,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "core/core.h"
 #include "exporters/exporters.h"
 #include "importers/extensions.h"
 #include "radiosity/radiosity.h"
@@ -26,6 +27,7 @@
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using radbake::kPi;
 
 namespace {
 
@@ -574,8 +576,6 @@ std::vector<double> probePlate(const std::string& gltf, const std::vector<std::p
   EXPECT_EQ(r.code, 0) << r.err;
   return probeRed(values);
 }
-
-constexpr double kPi = 3.14159265358979323846;
 
 TEST(Lights, PointLightAboveAWhitePlate) {
   // I = 10 cd at d = 2 above the centre: L = ρ I cosθ / (π r²); at the foot point ρ I / (π d²).

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "core/core.h"
 #include "exporters/exporters.h"
 #include "importers/importers.h"
 #include "radiosity/radiosity.h"
@@ -70,13 +71,6 @@ class Progress {
   std::string stage_;
   bool barOpen_ = false;
 };
-
-std::string lowerExtension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 
 nlohmann::json vec3Json(const Vec3& v) { return {v.x, v.y, v.z}; }
 
