@@ -87,6 +87,21 @@ struct Closure {
   bool separates(size_t row, size_t patch) const { return rows[row] != patches[patch]; }
 };
 
+// The enclosed patches, and the enclosed unknowns: patches (constant) or their vertices (bilinear).
+std::shared_ptr<Closure> makeClosure(const PatchMesh& mesh, Method method) {
+  auto closure = std::make_shared<Closure>();
+  closure->patches = enclosedPatches(mesh);
+  if (method == Method::kConstant) {
+    closure->rows = closure->patches;
+    return closure;
+  }
+  closure->rows.assign(mesh.positions.size(), false);
+  for (size_t p = 0; p < mesh.patches.size(); ++p)
+    if (closure->patches[p])
+      for (uint32_t v : mesh.patches[p].v) closure->rows[v] = true;
+  return closure;
+}
+
 void applyClosure(Transport& t, std::shared_ptr<Closure> closure) {
   t.build = [inner = t.build, closure](size_t i, Row& row) {
     inner(i, row);
@@ -674,19 +689,13 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
   std::vector<Vec3> gathered;
-  const std::vector<bool> enclosed = enclosedPatches(mesh);
+  const auto closure = makeClosure(mesh, options.method);
   if (options.method == Method::kBilinear) {
     std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
     for (size_t v = 0; v < mesh.positions.size(); ++v) {
       emission[v] = mesh.vertexEmission[v];
       reflectance[v] = mesh.vertexReflectance[v];
     }
-    auto closure = std::make_shared<Closure>();
-    closure->patches = enclosed;
-    closure->rows.assign(mesh.positions.size(), false);
-    for (size_t p = 0; p < mesh.patches.size(); ++p)
-      if (enclosed[p])
-        for (uint32_t v : mesh.patches[p].v) closure->rows[v] = true;
     const std::vector<Vec3> source = withDirectLight(
         withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion, closure->rows); }),
         reflectance, bilinearDirectLight(scene, mesh, occlusion));
@@ -698,8 +707,6 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       solution.matrixFree = !K.stored();
     }
     iterate(K, source, reflectance, options, solution.vertexRadiance, gathered, solution);
-    solution.enclosedUnknowns = size_t(std::count(closure->rows.begin(), closure->rows.end(), true));
-    solution.closureCorrection = closure->largest.load();
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
       const auto a = shapeFunctionAreas(corners(mesh, patch));
@@ -725,9 +732,6 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       emission[p] = mesh.patches[p].emission;
       reflectance[p] = mesh.patches[p].reflectance;
     }
-    auto closure = std::make_shared<Closure>();
-    closure->patches = enclosed;
-    closure->rows = enclosed;
     const std::vector<Vec3> source = withDirectLight(
         withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion, closure->rows); }),
         reflectance, constantDirectLight(scene, mesh, occlusion));
@@ -739,8 +743,6 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       solution.matrixFree = !F.stored();
     }
     iterate(F, source, reflectance, options, solution.patchRadiance, gathered, solution);
-    solution.enclosedUnknowns = size_t(std::count(closure->rows.begin(), closure->rows.end(), true));
-    solution.closureCorrection = closure->largest.load();
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       const Vec3& rho = reflectance[p];
       solution.emittedPower += kPi * mesh.patches[p].area * (emission[p].x + emission[p].y + emission[p].z) / 3;
@@ -759,6 +761,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     solution.vertexRadiance.resize(mesh.positions.size());
     for (size_t v = 0; v < sum.size(); ++v) solution.vertexRadiance[v] = weight[v] > 0 ? sum[v] / weight[v] : Vec3{};
   }
+  solution.enclosedUnknowns = size_t(std::count(closure->rows.begin(), closure->rows.end(), true));
+  solution.closureCorrection = closure->largest.load();
   return solution;
 }
 

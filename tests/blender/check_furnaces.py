@@ -13,29 +13,12 @@ more than the tolerance, and prints one line per bake (min, max, worst relative 
 import argparse
 import json
 import os
-import struct
 import subprocess
 import sys
 import tempfile
 import time
 
-from array import array
-
-def radiance(glb):
-    data = open(glb, "rb").read()
-    n = struct.unpack_from("<I", data, 12)[0]
-    doc = json.loads(data[20:20 + n])
-    binary = data[20 + n + 8:]
-    values = []
-    for mesh in doc["meshes"]:
-        for prim in mesh["primitives"]:
-            acc = doc["accessors"][prim["attributes"]["_RADIANCE"]]
-            view = doc["bufferViews"][acc["bufferView"]]
-            start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-            a = array("f")
-            a.frombytes(binary[start:start + acc["count"] * 12])
-            values.extend(a)
-    return values
+import glb
 
 
 def main():
@@ -67,7 +50,7 @@ def main():
                         print(f"FAIL {entry['file']} {method} N={n}: exit {run.returncode}: {run.stderr.strip()}")
                         failed += 1
                         continue
-                    L = radiance(out)
+                    L = glb.radiance(*glb.load(out))
                     exact = entry["exact"]
                     err = max(abs(v - exact) for v in L) / exact
                     ok = err <= args.tolerance

@@ -13,14 +13,9 @@ trap 'rm -rf "$tmp"' EXIT
 blender -b --factory-startup --python-exit-code 1 --python "$here/make_scene.py" -- "$tmp/room.glb" >"$tmp/blender.log" 2>&1 ||
   { cat "$tmp/blender.log"; exit 1; }
 "$radbake" bake "$tmp/room.glb" -o "$tmp/baked.glb" --report "$tmp/report.json" --quiet --progress none
-python3 - "$tmp/room.glb" "$tmp/baked.glb" "$tmp/report.json" <<'PY'
-import json, struct, sys
-from array import array
-
-def load(path):
-    data = open(path, "rb").read()
-    n = struct.unpack_from("<I", data, 12)[0]
-    return json.loads(data[20:20 + n]), data[20 + n + 8:]
+PYTHONPATH="$here" python3 - "$tmp/room.glb" "$tmp/baked.glb" "$tmp/report.json" <<'PY'
+import json, sys
+from glb import load, radiance
 
 src, _ = load(sys.argv[1])
 doc, binary = load(sys.argv[2])
@@ -38,13 +33,7 @@ check(report["counts"]["clonedMeshes"] == 2, "two instances baked as appended co
 check(all(m.get("doubleSided") for m in src["materials"]), "Blender's materials are double-sided")
 suzanne = doc["meshes"][doc["nodes"][[n["name"] for n in doc["nodes"]].index("Suzanne")]["mesh"]]
 check(all("TEXCOORD_1" in p["attributes"] for p in suzanne["primitives"]), "Suzanne keeps its second UV map")
-values = array("f")
-for mesh in doc["meshes"]:
-    for prim in mesh["primitives"]:
-        acc = doc["accessors"][prim["attributes"]["_RADIANCE"]]
-        view = doc["bufferViews"][acc["bufferView"]]
-        start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-        values.frombytes(binary[start:start + acc["count"] * 12])
+values = radiance(doc, binary)
 check(all(v == v and 0 <= v < 1e6 for v in values), f"{len(values) // 3} radiance values finite and non-negative")
 check(sum(1 for v in values if v > 0) > 0.9 * len(values), "the room is lit nearly everywhere")
 check(report["solver"]["enclosedUnknowns"] > 0, "the closed room is recognised as closed")
