@@ -56,10 +56,15 @@ double windingNumber(const PatchMesh& mesh, const std::vector<uint32_t>& patches
 
 }  // namespace
 
-std::vector<bool> enclosedPatches(const PatchMesh& mesh) {
+bool Enclosures::contains(const PatchMesh& mesh, int room, const Vec3& point) const {
+  return std::abs(windingNumber(mesh, walls[room], point)) > 0.5;
+}
+
+Enclosures findEnclosures(const PatchMesh& mesh) {
   const size_t n = mesh.patches.size();
-  std::vector<bool> enclosed(n, false);
-  if (n == 0) return enclosed;
+  Enclosures out;
+  out.of.assign(n, -1);
+  if (n == 0) return out;
   auto key = [&](uint32_t v) {
     const Vec3& p = mesh.positions[v];
     return PointKey{p.x, p.y, p.z};
@@ -87,7 +92,7 @@ std::vector<bool> enclosedPatches(const PatchMesh& mesh) {
   }
   std::map<size_t, std::vector<uint32_t>> components;
   for (size_t i = 0; i < n; ++i) components[find(parent, i)].push_back(uint32_t(i));
-  std::vector<const std::vector<uint32_t>*> inwardClosed;
+  std::vector<std::pair<double, const std::vector<uint32_t>*>> rooms;  // (enclosed volume, walls)
   std::vector<const std::vector<uint32_t>*> others;
   for (const auto& [root, patches] : components) {
     const bool closed = std::none_of(patches.begin(), patches.end(), [&](uint32_t k) { return open[k]; });
@@ -98,36 +103,41 @@ std::vector<bool> enclosedPatches(const PatchMesh& mesh) {
         for (int t = 1; t + 1 < cornerCount(p); ++t)
           volume += dot(mesh.positions[p.v[0]], cross(mesh.positions[p.v[t]], mesh.positions[p.v[t + 1]]));
       }
-    if (closed && volume < 0) {
-      inwardClosed.push_back(&patches);
-      for (uint32_t k : patches) enclosed[k] = true;
-    } else {
-      others.push_back(&patches);
-    }
+    if (closed && volume < 0) rooms.push_back({-volume, &patches});
+    else others.push_back(&patches);
   }
-  // Anything else inside an inward closed surface (objects in a closed room). A component is
-  // tested at the centres of its patches until one is clearly inside or outside: a block standing
-  // on the floor has a face lying on it, where the winding number is ½.
+  // Smallest first, so the first room found around something is the innermost.
+  std::sort(rooms.begin(), rooms.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t r = 0; r < rooms.size(); ++r) {
+    out.walls.push_back(*rooms[r].second);
+    for (uint32_t k : *rooms[r].second) out.of[k] = int(r);
+  }
+  // Anything else inside a room (objects in a closed room). A component is tested at the centres
+  // of its patches until one is clearly inside or outside: a block standing on the floor has a
+  // face lying on it, where the winding number is ½.
   for (const auto* component : others) {
-    bool inside = false;
     const int twin = mesh.patches[component->front()].twin;
-    for (const auto* room : inwardClosed) {
+    const size_t samples = std::min<size_t>(component->size(), 16);
+    for (size_t r = 0; r < out.walls.size(); ++r) {
+      const auto& walls = out.walls[r];
       // A double-sided surface's two sides coincide: neither is inside the other.
-      if (twin >= 0 && std::find(room->begin(), room->end(), uint32_t(twin)) != room->end()) continue;
-      for (size_t t = 0; t < std::min<size_t>(component->size(), 16) && !inside; ++t) {
-        const Patch& p = mesh.patches[(*component)[t * component->size() / std::min<size_t>(component->size(), 16)]];
+      if (twin >= 0 && std::find(walls.begin(), walls.end(), uint32_t(twin)) != walls.end()) continue;
+      bool inside = false, decided = false;
+      for (size_t t = 0; t < samples && !decided; ++t) {
+        const Patch& p = mesh.patches[(*component)[t * component->size() / samples]];
         Vec3 centre{};
         for (int k = 0; k < cornerCount(p); ++k) centre += mesh.positions[p.v[k]] / double(cornerCount(p));
-        const double w = std::abs(windingNumber(mesh, *room, centre));
-        if (w > 0.75) inside = true;
-        if (w < 0.25) break;
+        const double w = std::abs(windingNumber(mesh, walls, centre));
+        if (w > 0.75) inside = decided = true;
+        if (w < 0.25) decided = true;
       }
-      if (inside) break;
+      if (inside) {
+        for (uint32_t k : *component) out.of[k] = int(r);
+        break;
+      }
     }
-    if (inside)
-      for (uint32_t k : *component) enclosed[k] = true;
   }
-  return enclosed;
+  return out;
 }
 
 }  // namespace radbake

@@ -12,10 +12,16 @@
 
 namespace radbake {
 
-// Per patch: true when the patch belongs to a closed, consistently oriented surface whose front
-// faces inward, or lies inside one. Closed means every edge is shared by exactly two patches of the
-// same side (front or double-sided back), running in opposite directions, matched by exact
-// position (unwelded creases included).
-std::vector<bool> enclosedPatches(const PatchMesh& mesh);
+// The closed surfaces whose fronts face inward (rooms) and what each one encloses. Closed means
+// every edge is shared by exactly two patches of the same side (front or double-sided back),
+// running in opposite directions, matched by exact position (unwelded creases included).
+struct Enclosures {
+  std::vector<int> of;                        // per patch: the innermost room it is in or bounds, or −1
+  std::vector<std::vector<uint32_t>> walls;   // per room: the patches of its closed surface
+  // Whether `point` is inside room `room` (generalized winding number of its walls).
+  bool contains(const PatchMesh& mesh, int room, const Vec3& point) const;
+};
+
+Enclosures findEnclosures(const PatchMesh& mesh);
 
 }  // namespace radbake

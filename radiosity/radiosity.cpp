@@ -72,13 +72,16 @@ struct Transport {
 };
 
 // Closure (docs/radiosity.md): an enclosed unknown's hemisphere is covered by the scene, so its row
-// sums to exactly 1. The kernels and crease limits are exact; what is not is the visible fraction
-// of a partly hidden source, estimated from rays. Scaling the row to 1 removes that estimate's net
-// gain or loss (a furnace holds to rounding) without moving light between sources. Rows far from
-// 1 are left alone: that is not estimation error but a scene the test misjudged.
+// sums to exactly 1; no row can sum to more. The kernels and crease limits are exact; what is not
+// is the visible fraction of a partly hidden source, estimated from rays (and the near field of a
+// saddle vertex). Scaling an enclosed row to 1, and any row above 1 down to 1, removes that
+// estimate's net gain or loss (a furnace holds to rounding) without moving light between sources.
+// An enclosed row below 0.9 is left alone: that is not estimation error but a receiver in contact
+// with another surface (a box's bottom on a floor) or a scene the closedness test misjudged.
 struct Closure {
-  std::vector<bool> patches;            // per patch: enclosed (enclosedPatches)
+  std::vector<bool> patches;            // per patch: enclosed (findEnclosures)
   std::vector<bool> rows;               // per unknown: enclosed
+  std::vector<bool> dark;               // per unknown: in a room with no emitter and no light inside
   std::atomic<double> largest{0};       // largest |Σ − 1| corrected
   // Light never crosses a closed surface: an enclosed receiver gathers only from enclosed
   // patches, any other only from the rest. Exact, and it keeps a ray that slips through a closed
@@ -88,27 +91,48 @@ struct Closure {
 };
 
 // The enclosed patches, and the enclosed unknowns: patches (constant) or their vertices (bilinear).
-std::shared_ptr<Closure> makeClosure(const PatchMesh& mesh, Method method) {
+// A room with no emitting patch and no point or spot light inside is dark: everything in it is
+// exactly black (the inside of a closed double-sided object), so its rows are left empty.
+std::shared_ptr<Closure> makeClosure(const Scene& scene, const PatchMesh& mesh, Method method) {
   auto closure = std::make_shared<Closure>();
-  closure->patches = enclosedPatches(mesh);
-  if (method == Method::kConstant) {
-    closure->rows = closure->patches;
-    return closure;
+  const Enclosures rooms = findEnclosures(mesh);
+  std::vector<bool> lit(rooms.walls.size(), false);
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
+    const Vec3& e = mesh.patches[p].emission;
+    if (rooms.of[p] >= 0 && (e.x > 0 || e.y > 0 || e.z > 0)) lit[rooms.of[p]] = true;
   }
-  closure->rows.assign(mesh.positions.size(), false);
-  for (size_t p = 0; p < mesh.patches.size(); ++p)
-    if (closure->patches[p])
-      for (uint32_t v : mesh.patches[p].v) closure->rows[v] = true;
+  for (size_t r = 0; r < rooms.walls.size(); ++r)
+    for (const PunctualLight& light : scene.lights)
+      if (!lit[r] && light.type != PunctualLight::Type::kDirectional && rooms.contains(mesh, int(r), light.position))
+        lit[r] = true;
+  const size_t n = method == Method::kConstant ? mesh.patches.size() : mesh.positions.size();
+  closure->patches.resize(mesh.patches.size());
+  closure->rows.assign(n, false);
+  closure->dark.assign(n, method == Method::kBilinear);
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
+    const int room = rooms.of[p];
+    closure->patches[p] = room >= 0;
+    const bool dark = room >= 0 && !lit[room];
+    if (method == Method::kConstant) {
+      closure->rows[p] = room >= 0;
+      closure->dark[p] = dark;
+      continue;
+    }
+    for (uint32_t v : mesh.patches[p].v) {  // a vertex is dark only if all its patches are
+      closure->rows[v] = closure->rows[v] || room >= 0;
+      closure->dark[v] = closure->dark[v] && dark;
+    }
+  }
   return closure;
 }
 
 void applyClosure(Transport& t, std::shared_ptr<Closure> closure) {
   t.build = [inner = t.build, closure](size_t i, Row& row) {
+    if (closure->dark[i]) return;  // black, whatever it would gather
     inner(i, row);
-    if (!closure->rows[i]) return;
     double sum = 0;
     for (const auto& entry : row) sum += entry.second;
-    if (!(sum > 0.9 && sum < 1.1)) return;
+    if (!(sum > (closure->rows[i] ? 0.9 : 1.0)) || sum == 1) return;
     for (auto& entry : row) entry.second /= sum;
     const double change = std::abs(sum - 1);
     double seen = closure->largest.load();
@@ -212,6 +236,24 @@ bool freeDirection(const std::vector<Vec3>& normals, Vec3& d) {
     d = normalize(d + *worst * (0.1 - lowest));
   }
   return false;
+}
+
+// Whether nothing of the scene lies in front of the plane through p with normal n: the whole
+// bounding box behind it or in it (the outside of a room's walls, the back of a double-sided
+// surface on the scene's edge). Such a receiver's row is empty, and costs no pass over the
+// patches.
+bool facesNothing(const Bounds& scene, const Vec3& p, const Vec3& n, double epsilon) {
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 corner{c & 1 ? scene.hi.x : scene.lo.x, c & 2 ? scene.hi.y : scene.lo.y, c & 4 ? scene.hi.z : scene.lo.z};
+    if (dot(n, corner - p) > epsilon) return false;
+  }
+  return true;
+}
+
+Bounds sceneBounds(const PatchMesh& mesh) {
+  Bounds b;
+  for (const Vec3& p : mesh.positions) b.add(p);
+  return b;
 }
 
 Receivers receivers(const PatchMesh& mesh, double offset) {
@@ -364,8 +406,10 @@ Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
   auto recv = std::make_shared<Receivers>(receivers(mesh, occlusion.epsilon() * 10));
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = options.kernelTolerance;
-  t.build = [&mesh, &occlusion, recv, kernelOptions, closure](size_t i, Row& row) {
+  const Bounds bounds = sceneBounds(mesh);
+  t.build = [&mesh, &occlusion, recv, kernelOptions, closure, bounds](size_t i, Row& row) {
     const Vec3 p = mesh.positions[i], nrm = recv->normal[i], a = recv->approach[i];
+    if (facesNothing(bounds, p, nrm, occlusion.epsilon())) return;
     std::vector<uint32_t> ignore(recv->ignored(i).begin(), recv->ignored(i).end());
     ignore.push_back(0);  // the source patch, set below
     for (size_t source = 0; source < mesh.patches.size(); ++source) {
@@ -401,9 +445,13 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
   Transport t;
   t.rows = mesh.patches.size();
   const double tolerance = 0.1 * options.kernelTolerance;
-  t.build = [&mesh, &occlusion, tolerance, closure](size_t k, Row& row) {
+  const Bounds bounds = sceneBounds(mesh);
+  t.build = [&mesh, &occlusion, tolerance, closure, bounds](size_t k, Row& row) {
     const Patch& pk = mesh.patches[k];
     const auto qk = corners(mesh, pk);
+    bool nothing = true;
+    for (const Vec3& c : qk) nothing = nothing && facesNothing(bounds, c, pk.normal, occlusion.epsilon());
+    if (nothing) return;
     const Vec3 lift = pk.normal * (occlusion.epsilon() * 10);
     for (size_t l = 0; l < mesh.patches.size(); ++l) {
       if (l == k || closure->separates(k, l)) continue;
@@ -689,7 +737,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
   std::vector<Vec3> gathered;
-  const auto closure = makeClosure(mesh, options.method);
+  const auto closure = makeClosure(scene, mesh, options.method);
   if (options.method == Method::kBilinear) {
     std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
     for (size_t v = 0; v < mesh.positions.size(); ++v) {
@@ -763,6 +811,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   }
   solution.enclosedUnknowns = size_t(std::count(closure->rows.begin(), closure->rows.end(), true));
   solution.closureCorrection = closure->largest.load();
+  solution.darkUnknowns = size_t(std::count(closure->dark.begin(), closure->dark.end(), true));
   return solution;
 }
 
