@@ -75,7 +75,13 @@ bool makePolygon(const Vec3* pts, int count, Polygon& out) {
 // the receiver's horizon half-space n·r >= 0. Works for points and for unit
 // directions alike: an arc between two directions (< pi) is the radial
 // projection of their chord, and the sign of n·r is linear along the chord.
-void clipToHorizon(const std::vector<Vec3>& in, const Vec3& n, std::vector<Vec3>& out) {
+//
+// `directions`: the polygon is a spherical one (the tangent cone of a crease). There the clipped
+// boundary runs along the horizon great circle from where the polygon leaves it to where it comes
+// back, and when those two points are antipodal (a crease edge lying in the horizon, its apex
+// behind it by rounding only) the arc between them is a semicircle whose side is undetermined. A
+// vertex that is behind by rounding only is moved onto the horizon instead of dropped.
+void clipToHorizon(const std::vector<Vec3>& in, const Vec3& n, std::vector<Vec3>& out, bool directions = false) {
   out.clear();
   const size_t k = in.size();
   for (size_t i = 0; i < k; ++i) {
@@ -83,7 +89,11 @@ void clipToHorizon(const std::vector<Vec3>& in, const Vec3& n, std::vector<Vec3>
     const Vec3& b = in[(i + 1) % k];
     const double ga = dot(n, a);
     const double gb = dot(n, b);
-    if (ga >= 0) out.push_back(a);
+    if (ga >= 0) {
+      out.push_back(a);
+    } else if (directions && ga > -1e-6 * length(a)) {
+      out.push_back(a - n * ga);  // behind by rounding only: onto the horizon
+    }
     if ((ga > 0 && gb < 0) || (ga < 0 && gb > 0)) out.push_back(a + (b - a) * (ga / (ga - gb)));
   }
 }
@@ -192,7 +202,7 @@ double limitFactor(const Polygon& poly, const Vec3& p, const Vec3& n, const Vec3
     dirs.push_back(d1 * std::cos(ang) + e * std::sin(ang));
   }
   dirs.push_back(d2);
-  clipToHorizon(dirs, n, scratch.b);
+  clipToHorizon(dirs, n, scratch.b, true);
   return contourSum(scratch.b, n);
 }
 

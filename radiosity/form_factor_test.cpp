@@ -594,3 +594,26 @@ TEST(ShapeFunctionAreas, ClosedForms) {
 
 }  // namespace
 }  // namespace radbake
+
+namespace radbake {
+namespace {
+
+TEST(PointPolygonFactor, CreaseLimitWithTheEdgeInTheHorizonAndTheApexBehindByRounding) {
+  // The Cornell box's red wall meets the ceiling at a right angle, tilted 0.33° about the shared
+  // edge (the wall is not quite planar). The receiving normal is the wall's; the edge lies exactly
+  // in its horizon and the approach lies in the wall up to rounding, so the cone's apex can fall
+  // behind the horizon by 1e-12. The ceiling still covers half the hemisphere (± the tilt); an
+  // undetermined semicircle in the horizon clip once gave 0.003.
+  const Vec3 n = normalize(Vec3{-1, 0.00583, 0});
+  const Vec3 p{0.556, 0.5488, 0.0699};
+  const Vec3 ceiling[4] = {{0.556, 0.5488, 0}, {0.556, 0.5488, 0.5592}, {0, 0.5488, 0.5592}, {0, 0.5488, 0}};  // faces down
+  const Vec3 down = normalize(cross(n, Vec3{0, 0, 1}));  // in the wall, away from the ceiling
+  for (double rounding : {-1e-12, 0.0, 1e-12}) {
+    const Vec3 a = down.y < 0 ? down + n * rounding : -down + n * rounding;
+    const double f = pointPolygonFactorLimit(p, n, a, ceiling, 4);
+    EXPECT_NEAR(f, 0.5, 0.01) << rounding;
+  }
+}
+
+}  // namespace
+}  // namespace radbake

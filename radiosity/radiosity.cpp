@@ -303,14 +303,15 @@ Receivers receivers(const PatchMesh& mesh, double offset) {
     // where they allow no common free side, the vertex's own planes; else its normal.
     std::vector<Vec3> ownPlanes, meeting;
     for (uint32_t i : own[v]) ownPlanes.push_back(mesh.patches[i].normal);
-    // A vertex whose own patches lie in one plane receives with that plane's normal. Its shading
-    // normal may be tilted (a smooth-shaded cylinder's cap, subdivided: the normals interpolate
-    // toward the rim), but the surface there is flat, and a tilted hemisphere would reach below
-    // the face: into the solid on a furnace's inside, into the object under a sky.
-    r.normal[v] = mesh.normals[v];
-    if (!ownPlanes.empty() &&
-        std::all_of(ownPlanes.begin(), ownPlanes.end(), [&](const Vec3& m) { return dot(m, ownPlanes[0]) > 1 - 1e-9; }))
-      r.normal[v] = ownPlanes[0];
+    // The receiving normal is the geometry's: the mean of the vertex's own patch normals, inside
+    // the cone they span. The file's shading normal can lie outside it (interpolated along a
+    // subdivided edge, or tilted toward the rim on a smooth-shaded flat cap), and a hemisphere
+    // tilted that way reaches behind the facets: into a convex object under the sky (which then
+    // shades itself), or below a flat face. Inside a closed surface any normal gives the exact
+    // total (docs/radiosity.md), so this costs nothing there.
+    Vec3 facets{};
+    for (const Vec3& m : ownPlanes) facets += m;
+    r.normal[v] = length(facets) > 1e-9 ? normalize(facets) : mesh.normals[v];
     for (const Vec3& m : planes[{mesh.positions[v], back[v]}])
       if (std::none_of(ownPlanes.begin(), ownPlanes.end(), [&](const Vec3& o) { return dot(o, m) < -1 + 1e-9; }))
         meeting.push_back(m);
