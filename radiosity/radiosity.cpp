@@ -401,10 +401,9 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
 // Bilinear method: row i holds K_ij for every vertex j, K_ij = Σ over patches of the kernel from
 // vertex i to the patch's shape function at j, times visibility.
 Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
-                            std::shared_ptr<const Closure> closure) {
+                            std::shared_ptr<const Receivers> recv, std::shared_ptr<const Closure> closure) {
   Transport t;
   t.rows = mesh.positions.size();
-  auto recv = std::make_shared<Receivers>(receivers(mesh, occlusion.epsilon() * 10));
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = options.kernelTolerance;
   const Bounds bounds = sceneBounds(mesh);
@@ -491,9 +490,8 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
 
 // The part of each receiver's projected solid angle that no surface covers, front or back: what a
 // uniform sky lights. Two-sided factors of every patch, times their visible fraction.
-std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion,
+std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
                                          const std::vector<bool>& enclosed) {
-  const Receivers recv = receivers(mesh, occlusion.epsilon() * 10);
   std::vector<double> sky(mesh.positions.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -514,8 +512,7 @@ std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion&
         // The vertex's own patches: on a concave surface they rise in front of it and cover what
         // their front-side limit says (as in K); on a convex one they fall away behind it and
         // cover nothing (their limit from behind is ill-conditioned, so it is not taken).
-        const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end() ||
-                           (patch.twin >= 0 && std::find(own.begin(), own.end(), uint32_t(patch.twin)) != own.end());
+        const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
         if (!isOwn && dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
           // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
           std::swap(q[1], q[3]);
@@ -646,10 +643,10 @@ Vec3 directIrradiance(const std::vector<PunctualLight>& lights, const Sight& sig
 }
 
 // Direct light from the punctual lights, as the radiance it adds: ρ E / π per unknown.
-std::vector<Vec3> bilinearDirectLight(const Scene& scene, const PatchMesh& mesh, const Occlusion& occlusion) {
+std::vector<Vec3> bilinearDirectLight(const Scene& scene, const PatchMesh& mesh, const Occlusion& occlusion,
+                                      const Receivers& recv) {
   std::vector<Vec3> e(mesh.positions.size());
   if (scene.lights.empty()) return e;
-  const Receivers recv = receivers(mesh, occlusion.epsilon() * 10);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, e.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i)
       e[i] = directIrradiance(scene.lights, Sight{occlusion, mesh, recv.origin[i], recv.ignored(i), recv.own(i)},
@@ -745,12 +742,13 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       emission[v] = mesh.vertexEmission[v];
       reflectance[v] = mesh.vertexReflectance[v];
     }
+    const auto recv = std::make_shared<const Receivers>(receivers(mesh, occlusion.epsilon() * 10));
     const std::vector<Vec3> source = withDirectLight(
-        withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion, closure->rows); }),
-        reflectance, bilinearDirectLight(scene, mesh, occlusion));
+        withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion, *recv, closure->rows); }),
+        reflectance, bilinearDirectLight(scene, mesh, occlusion, *recv));
     Transport K;
     if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
-      K = bilinearTransport(mesh, occlusion, options, closure);
+      K = bilinearTransport(mesh, occlusion, options, recv, closure);
       applyClosure(K, closure);
       storeIfItFits(K, options, solution.matrixEntries);
       solution.matrixFree = !K.stored();
