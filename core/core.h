@@ -9,7 +9,9 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -90,12 +92,20 @@ enum class ExitCode : int {
   kInvalidInput = 2,
   kUnsupported = 3,
   kCannotWrite = 4,
+  kNotConverged = 5,  // only with --strict: the solve stopped before its tolerance
 };
+
+// At most this many characters in a message: a hostile file must not turn one line into megabytes.
+constexpr size_t kMaxMessageLength = 400;
+
+// `text` as one bounded line: the first line only, control characters dropped, cut to `limit`
+// characters (with "..." at the cut). Every Error message goes through it.
+std::string oneLine(const std::string& text, size_t limit = kMaxMessageLength);
 
 // A failure that ends the run: one line naming the file and the element, and the exit code.
 class Error : public std::runtime_error {
  public:
-  Error(ExitCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  Error(ExitCode code, const std::string& message) : std::runtime_error(oneLine(message)), code_(code) {}
   ExitCode code() const { return code_; }
 
  private:
@@ -103,6 +113,27 @@ class Error : public std::runtime_error {
 };
 
 // ---- Files ---------------------------------------------------------------------------------
+
+// Reads a regular file whole, refusing anything else before a byte is read: a FIFO (which would
+// block), a device (/dev/zero never ends), a directory, or a file past `maxBytes`. Errors are
+// kInvalidInput ("<what>: not a regular file (a FIFO)", "<what>: cannot open: no such file"), or
+// kUnsupported when it is larger than `maxBytes`. `what` names the file in messages.
+std::vector<unsigned char> readRegularFile(const std::string& path, const std::string& what, uint64_t maxBytes);
+
+// Why `path` cannot be read as a regular file ("not a regular file (a FIFO)", "no such file"), or ""
+// when it can. Does not open it, so it never blocks.
+std::string regularFileProblem(const std::string& path);
+
+// ---- Memory --------------------------------------------------------------------------------
+
+// The machine's physical memory in bytes (the default of --max-memory), or 8 GiB when unknown.
+uint64_t physicalMemoryBytes();
+
+// "2G", "512M", "1.5GiB", "4096" (bytes) → bytes; nullopt for anything else (negative, NaN, junk).
+std::optional<uint64_t> parseByteSize(const std::string& text);
+
+// "1.5 GiB", "12 MiB", "512 bytes": for messages.
+std::string formatBytes(double bytes);
 
 // Writes `bytes` to `path` atomically: a temporary file beside it, then rename.
 void writeFileAtomically(const std::string& path, const std::string& bytes);

@@ -86,4 +86,10 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
                         const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance = {},
                         const ExportOptions& options = {});
 
+// The same, but the files are appended to `files` (path → bytes, the glTF first) for the caller to
+// write together with its own outputs (writeFilesAtomically): the command line's all-or-nothing.
+ExportSummary exportGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
+                         const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance,
+                         const ExportOptions& options, std::vector<std::pair<std::string, std::string>>& files);
+
 }  // namespace radbake

@@ -608,6 +608,15 @@ std::string serialize(tinygltf::Model& m, bool binary, bool pretty) {
 ExportSummary writeGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
                         const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance,
                         const ExportOptions& options) {
+  std::vector<std::pair<std::string, std::string>> files;
+  const ExportSummary summary = exportGltf(path, scene, mesh, vertexRadiance, patchRadiance, options, files);
+  writeFilesAtomically(files);
+  return summary;
+}
+
+ExportSummary exportGltf(const std::string& path, const Scene& scene, const PatchMesh& mesh,
+                         const std::vector<Vec3>& vertexRadiance, const std::vector<Vec3>& patchRadiance,
+                         const ExportOptions& options, std::vector<std::pair<std::string, std::string>>& out) {
   const std::string ext = lowerExtension(path);
   if (ext != ".glb" && ext != ".gltf")
     throw Error(ExitCode::kUsage, path + ": output must end in .glb or .gltf");
@@ -712,8 +721,8 @@ ExportSummary writeGltf(const std::string& path, const Scene& scene, const Patch
   }
   for (const BakedPrimitive& b : baked) summary.writtenVertices += b.radiance.size();
   summary.bakedPrimitives = int(baked.size());
-  files.insert(files.begin(), {path, serialize(m, ext == ".glb", options.pretty)});
-  writeFilesAtomically(files);
+  out.push_back({path, serialize(m, ext == ".glb", options.pretty)});
+  out.insert(out.end(), files.begin(), files.end());
   return summary;
 }
 

@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
 namespace radbake {
@@ -16,15 +15,18 @@ constexpr double kBezierReflectance = 0.8;  // a .bpt has no materials: a light 
 
 }  // namespace
 
-Scene importBezierPatches(const std::string& path) {
+Scene importBezierPatches(const std::string& path, uint64_t maxBytes) {
+  const std::string file = std::filesystem::path(path).filename().string();
+  const std::vector<unsigned char> bytes = readRegularFile(path, file.empty() ? path : file, maxBytes);
+  return parseBezierPatches(std::string(bytes.begin(), bytes.end()), path);
+}
+
+Scene parseBezierPatches(const std::string& text, const std::string& path) {
   Scene scene;
   scene.path = path;
   const std::string file = std::filesystem::path(path).filename().string();
   auto fail = [&](const std::string& message) -> void { throw Error(ExitCode::kInvalidInput, file + ": " + message); };
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) fail("cannot open: no such file");
-  std::ifstream in(path);
-  if (!in) fail("cannot open: permission denied or unreadable");
+  std::istringstream in(text);
 
   int lineNumber = 0;
   std::string line;

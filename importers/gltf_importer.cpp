@@ -20,6 +20,7 @@
 #include "importers/importers.h"
 #include "importers/bpt_importer.h"
 #include "importers/draco.h"
+#include "importers/asset_files.h"
 #include "importers/extensions.h"
 #include "importers/meshopt.h"
 #include "importers/texture.h"
@@ -28,6 +29,17 @@ namespace radbake {
 namespace {
 
 constexpr Matrix4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+// What a bake holds per instanced vertex and triangle, from import to solve (positions, normals,
+// patches, the ray-tracing structure, the solver's state; measured in docs/results.md "Hostile
+// input"): the estimate --max-memory compares a scene against before reading its geometry.
+constexpr double kBytesPerVertex = 256;
+constexpr double kBytesPerTriangle = 1024;
+
+// The brightest emission or punctual light accepted: the Sun's disc is about 1.6e9 nits, so 1e20
+// leaves eleven orders of magnitude, and every product the solver forms stays finite in double and
+// the written radiance within float32.
+constexpr double kMaxEmission = 1e20;
+
 // A NORMAL this far from unit length is repaired (flat normal) with a warning.
 constexpr double kNormalLengthTolerance = 1e-3;
 
@@ -44,12 +56,19 @@ double normalLengthTolerance(const tinygltf::Accessor& acc) {
 struct Context {
   std::string file;  // the name printed in messages
   std::vector<std::string>* warnings;
+  uint64_t maxBytes = UINT64_MAX;  // the memory budget (--max-memory)
 
   [[noreturn]] void fail(ExitCode code, const std::string& message) const {
     throw Error(code, file + ": " + message);
   }
   [[noreturn]] void invalid(const std::string& message) const { fail(ExitCode::kInvalidInput, message); }
   void warn(const std::string& message) const { warnings->push_back(file + ": " + message); }
+  // Refuses (exit 3) an allocation of `bytes` that `what` would need past the memory budget.
+  void budget(double bytes, const std::string& what) const {
+    if (bytes > double(maxBytes))
+      fail(ExitCode::kUnsupported, what + " needs about " + formatBytes(bytes) + ", past the memory budget of " +
+                                       formatBytes(double(maxBytes)) + " (--max-memory)");
+  }
 };
 
 std::string firstLine(const std::string& text) {
@@ -58,21 +77,13 @@ std::string firstLine(const std::string& text) {
   return line;
 }
 
-std::vector<unsigned char> readFile(const Context& ctx, const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) ctx.invalid("cannot open: no such file");
-  if (std::filesystem::is_directory(path, ec)) ctx.invalid("cannot open: is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) ctx.invalid("cannot open: permission denied or unreadable");
-  return std::vector<unsigned char>(std::istreambuf_iterator<char>(in), {});
-}
-
 uint32_t readU32(const unsigned char* p) {
   return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
 
-// GLB container: 12-byte header, a JSON chunk, an optional BIN chunk. Returns the JSON text.
-std::string glbJson(const Context& ctx, const std::vector<unsigned char>& bytes) {
+// GLB container: 12-byte header, a JSON chunk, an optional BIN chunk. Returns the JSON text and
+// the BIN chunk's length in `binBytes` (0 without one).
+std::string glbJson(const Context& ctx, const std::vector<unsigned char>& bytes, uint64_t& binBytes) {
   if (bytes.size() < 20) ctx.invalid("truncated GLB: " + std::to_string(bytes.size()) + " bytes, the header alone needs 20");
   const uint32_t version = readU32(&bytes[4]);
   const uint32_t length = readU32(&bytes[8]);
@@ -85,10 +96,12 @@ std::string glbJson(const Context& ctx, const std::vector<unsigned char>& bytes)
   if (20ull + jsonLength > length)
     ctx.invalid("truncated GLB: JSON chunk of " + std::to_string(jsonLength) + " bytes exceeds the file length " + std::to_string(length));
   const uint64_t binStart = 20ull + jsonLength;
+  binBytes = 0;
   if (binStart + 8 <= length) {
     const uint32_t binLength = readU32(&bytes[binStart]);
     if (binStart + 8 + binLength > length)
       ctx.invalid("truncated GLB: BIN chunk of " + std::to_string(binLength) + " bytes exceeds the file length " + std::to_string(length));
+    if (readU32(&bytes[binStart + 4]) == 0x004E4942) binBytes = binLength;  // "BIN\0"; others are ignored
   }
   return std::string(reinterpret_cast<const char*>(&bytes[20]), jsonLength);
 }
@@ -191,6 +204,24 @@ void checkBufferView(const Context& ctx, const tinygltf::Model& m, int index) {
                 std::to_string(view.buffer) + " length " + std::to_string(buffer.data.size()));
 }
 
+// Checks that accessor `index` (which exists) lies inside its buffer view, before anything is read
+// or estimated from its count. `what` names the element using it.
+void checkAccessorRange(const Context& ctx, const tinygltf::Model& m, int index, const std::string& what) {
+  const auto& acc = m.accessors[index];
+  if (acc.bufferView < 0) return;
+  const std::string name = what + ": accessor " + std::to_string(index);
+  if (acc.bufferView >= int(m.bufferViews.size()))
+    ctx.invalid(name + ": buffer view " + std::to_string(acc.bufferView) + " does not exist");
+  checkBufferView(ctx, m, acc.bufferView);
+  const auto& view = m.bufferViews[acc.bufferView];
+  const size_t elementSize = size_t(componentSize(acc.componentType)) * componentCount(acc.type);
+  const size_t stride = view.byteStride ? view.byteStride : elementSize;
+  // 128-bit: a hostile count must not wrap the end of the range around to a small number.
+  if (acc.count > 0 && (unsigned __int128)acc.byteOffset + (unsigned __int128)stride * (acc.count - 1) + elementSize > view.byteLength)
+    ctx.invalid(name + ": count " + std::to_string(acc.count) + " exceeds buffer view " + std::to_string(acc.bufferView) +
+                " length " + std::to_string(view.byteLength));
+}
+
 // Reads accessor `index` into doubles (count × components), with stride, normalization and sparse
 // substitution. `what` names the element using it, for messages.
 std::vector<double> readAccessor(const Context& ctx, const tinygltf::Model& m, int index, const std::string& what) {
@@ -202,17 +233,15 @@ std::vector<double> readAccessor(const Context& ctx, const tinygltf::Model& m, i
   const int ccount = componentCount(acc.type);
   if (csize == 0) ctx.invalid(name + ": invalid componentType " + std::to_string(acc.componentType));
   if (ccount == 0) ctx.invalid(name + ": invalid type");
+  checkAccessorRange(ctx, m, index, what);
+  // An accessor without a buffer view is all zeros (then sparse values): its count is bounded by
+  // nothing in the file, only by the budget.
+  ctx.budget(double(acc.count) * ccount * sizeof(double), name);
   std::vector<double> out(acc.count * ccount, 0.0);
   if (acc.bufferView >= 0) {
-    if (acc.bufferView >= int(m.bufferViews.size()))
-      ctx.invalid(name + ": buffer view " + std::to_string(acc.bufferView) + " does not exist");
-    checkBufferView(ctx, m, acc.bufferView);
     const auto& view = m.bufferViews[acc.bufferView];
     const size_t elementSize = size_t(csize) * ccount;
     const size_t stride = view.byteStride ? view.byteStride : elementSize;
-    if (acc.count > 0 && acc.byteOffset + stride * (acc.count - 1) + elementSize > view.byteLength)
-      ctx.invalid(name + ": count " + std::to_string(acc.count) + " exceeds buffer view " +
-                  std::to_string(acc.bufferView) + " length " + std::to_string(view.byteLength));
     const unsigned char* base = m.buffers[view.buffer].data.data() + view.byteOffset + acc.byteOffset;
     for (size_t i = 0; i < acc.count; ++i)
       for (int c = 0; c < ccount; ++c)
@@ -225,11 +254,13 @@ std::vector<double> readAccessor(const Context& ctx, const tinygltf::Model& m, i
         ctx.invalid(name + ": sparse " + part + " buffer view " + std::to_string(viewIndex) + " does not exist");
       checkBufferView(ctx, m, viewIndex);
       const auto& view = m.bufferViews[viewIndex];
-      if (offset + bytes > view.byteLength) ctx.invalid(name + ": sparse " + part + " exceed buffer view " + std::to_string(viewIndex));
+      if ((unsigned __int128)offset + bytes > view.byteLength) ctx.invalid(name + ": sparse " + part + " exceed buffer view " + std::to_string(viewIndex));
       return m.buffers[view.buffer].data.data() + view.byteOffset + offset;
     };
     const int isize = componentSize(sp.indices.componentType);
     if (isize == 0) ctx.invalid(name + ": sparse indices have an invalid componentType");
+    if (sp.count < 1 || size_t(sp.count) > acc.count)
+      ctx.invalid(name + ": sparse count " + std::to_string(sp.count) + " must be from 1 to the accessor's count");
     const unsigned char* idx = slice(sp.indices.bufferView, sp.indices.byteOffset, size_t(sp.count) * isize, "indices");
     const unsigned char* val = slice(sp.values.bufferView, sp.values.byteOffset, size_t(sp.count) * csize * ccount, "values");
     for (int i = 0; i < sp.count; ++i) {
@@ -406,22 +437,44 @@ TextureRef readTextureRef(int index, int texCoord, const tinygltf::ExtensionMap&
   return ref;
 }
 
-Material readMaterial(const tinygltf::Material& mat, int index) {
+// Physical inputs (docs/radiosity.md "Physical inputs"): a reflectance outside [0, 1] or a negative
+// emission is clamped with a warning (exporters write such factors, and the intent is clear); a
+// value that is not finite, or an emission past kMaxEmission, is refused: no clamp can guess it.
+Vec3 clampedWithWarning(const Context& ctx, const Vec3& v, double lo, double hi, const std::string& what) {
+  const Vec3 c{std::clamp(v.x, lo, hi), std::clamp(v.y, lo, hi), std::clamp(v.z, lo, hi)};
+  if (c.x != v.x || c.y != v.y || c.z != v.z) {
+    std::ostringstream text;
+    text << what << " (" << v.x << ", " << v.y << ", " << v.z << ") is outside [" << lo << ", "
+         << (std::isinf(hi) ? std::string("inf") : std::to_string(int(hi))) << "]; clamped to (" << c.x << ", " << c.y << ", " << c.z << ")";
+    ctx.warn(text.str());
+  }
+  return c;
+}
+
+Material readMaterial(const Context& ctx, const tinygltf::Material& mat, int index) {
   Material out;
   out.name = mat.name.empty() ? "material " + std::to_string(index) : mat.name;
   out.gltfIndex = index;
+  const std::string what = "material " + std::to_string(index);
   const auto& pbr = mat.pbrMetallicRoughness;
   const double metallic = std::clamp(pbr.metallicFactor, 0.0, 1.0);
-  // Metals reflect no diffuse light; partial metalness scales the diffuse part as the glTF BRDF does.
-  if (pbr.baseColorFactor.size() >= 3)
-    out.reflectance = Vec3{pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2]} * (1 - metallic);
+  if (pbr.baseColorFactor.size() >= 3) {
+    const Vec3 base{pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2]};
+    if (!isFinite(base)) ctx.invalid(what + ": baseColorFactor is not finite");
+    // Metals reflect no diffuse light; partial metalness scales the diffuse part as the glTF BRDF does.
+    out.reflectance = clampedWithWarning(ctx, base, 0, 1, what + " baseColorFactor") * (1 - metallic);
+  }
   double strength = 1;
   if (auto it = mat.extensions.find("KHR_materials_emissive_strength"); it != mat.extensions.end()) {
     const auto& v = it->second.Get("emissiveStrength");
-    if (v.IsNumber()) strength = v.GetNumberAsDouble();
+    if (v.IsNumber() || v.IsInt()) strength = v.GetNumberAsDouble();
   }
-  if (mat.emissiveFactor.size() >= 3)
-    out.emission = Vec3{mat.emissiveFactor[0], mat.emissiveFactor[1], mat.emissiveFactor[2]} * strength;
+  if (mat.emissiveFactor.size() >= 3) {
+    const Vec3 emission = Vec3{mat.emissiveFactor[0], mat.emissiveFactor[1], mat.emissiveFactor[2]} * strength;
+    if (!isFinite(emission) || std::max({emission.x, emission.y, emission.z}) > kMaxEmission)
+      ctx.invalid(what + ": emission (emissiveFactor x emissiveStrength) is not finite or above 1e20 nits; no physical light is that bright");
+    out.emission = clampedWithWarning(ctx, emission, 0, std::numeric_limits<double>::infinity(), what + " emission");
+  }
   out.doubleSided = mat.doubleSided;
   out.alphaMask = mat.alphaMode == "MASK";
   out.alphaCutoff = mat.alphaCutoff;
@@ -452,6 +505,7 @@ std::vector<std::array<uint32_t, 3>> triangulate(int mode, const std::vector<uin
 // is used.
 void decodeTextures(const Context& ctx, const tinygltf::Model& m, Scene& scene) {
   std::map<int, int> decoded;  // glTF texture → Scene texture (-1: failed)
+  double textureBytes = 0;     // decoded so far, against the memory budget
   auto resolve = [&](TextureRef& ref) {
     if (ref.texture < 0) return;
     auto [it, isNew] = decoded.try_emplace(ref.texture, -1);
@@ -459,7 +513,17 @@ void decodeTextures(const Context& ctx, const tinygltf::Model& m, Scene& scene) 
       const tinygltf::Texture& gt = m.textures[ref.texture];
       Texture texture;
       std::string error = "no image";
-      if (gt.source >= 0 && decodeColorTexture(m.images[gt.source].image, texture, error)) {
+      int width = 0, height = 0;
+      bool plausible = gt.source >= 0;
+      if (plausible && imageDimensions(m.images[gt.source].image, width, height)) {
+        error = implausibleImage(m.images[gt.source].image, width, height);
+        plausible = error.empty();
+        textureBytes += double(width) * height * kDecodedBytesPerTexel;
+        if (plausible)
+          ctx.budget(textureBytes, "image " + std::to_string(gt.source) + " (" + std::to_string(width) + "x" +
+                                       std::to_string(height) + " pixels, with the textures before it)");
+      }
+      if (plausible && decodeColorTexture(m.images[gt.source].image, texture, error)) {
         if (gt.sampler >= 0) {
           texture.wrapS = m.samplers[gt.sampler].wrapS;
           texture.wrapT = m.samplers[gt.sampler].wrapT;
@@ -484,6 +548,7 @@ struct Importer {
   const tinygltf::Model& m;
   Scene& scene;
   std::set<std::pair<int, int>> skippedModes;
+  double instancedVertices = 0, instancedTriangles = 0;
 
   void addPrimitive(int nodeIndex, int meshIndex, int primIndex, const Matrix4& world) {
     const auto& prim = m.meshes[meshIndex].primitives[primIndex];
@@ -652,13 +717,42 @@ struct Importer {
     }
   }
 
-  void visit(int nodeIndex, const Matrix4& parentWorld) {
-    const auto& node = m.nodes[nodeIndex];
-    const Matrix4 world = multiply(parentWorld, localMatrix(node));
-    if (node.mesh >= 0)
-      for (size_t p = 0; p < m.meshes[node.mesh].primitives.size(); ++p) addPrimitive(nodeIndex, node.mesh, int(p), world);
-    if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end()) addLight(nodeIndex, it->second, world);
-    for (int child : node.children) visit(child, world);
+  // The node tree below `root`, depth first in document order. Iterative: a chain of 30,000 nodes is
+  // valid glTF and must not overflow the stack.
+  void visit(int root, const Matrix4& rootParent) {
+    std::vector<std::pair<int, Matrix4>> stack{{root, rootParent}};  // node, its parent's world
+    while (!stack.empty()) {
+      const auto [nodeIndex, parentWorld] = stack.back();
+      stack.pop_back();
+      const auto& node = m.nodes[nodeIndex];
+      const Matrix4 world = multiply(parentWorld, localMatrix(node));
+      if (node.mesh >= 0) {
+        countInstance(nodeIndex, node.mesh);
+        for (size_t p = 0; p < m.meshes[node.mesh].primitives.size(); ++p) addPrimitive(nodeIndex, node.mesh, int(p), world);
+      }
+      if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end()) addLight(nodeIndex, it->second, world);
+      for (auto child = node.children.rbegin(); child != node.children.rend(); ++child) stack.push_back({*child, world});
+    }
+  }
+
+  // Instancing multiplies a mesh by the nodes that place it: 20k triangles on 50,000 nodes are a
+  // billion. The scene's size is estimated from the accessor counts before anything is read.
+  void countInstance(int nodeIndex, int meshIndex) {
+    for (size_t p = 0; p < m.meshes[meshIndex].primitives.size(); ++p) {
+      const auto& prim = m.meshes[meshIndex].primitives[p];
+      auto pos = prim.attributes.find("POSITION");
+      if (pos == prim.attributes.end()) continue;
+      const std::string what = "mesh " + std::to_string(meshIndex) + " primitive " + std::to_string(p);
+      checkAccessorRange(ctx, m, pos->second, what + " POSITION");
+      if (prim.indices >= 0) checkAccessorRange(ctx, m, prim.indices, what + " indices");
+      const double vertices = double(m.accessors[pos->second].count);
+      const double indices = prim.indices >= 0 ? double(m.accessors[prim.indices].count) : vertices;
+      instancedVertices += vertices;
+      instancedTriangles += prim.mode == TINYGLTF_MODE_TRIANGLES ? indices / 3 : std::max(0.0, indices - 2);
+    }
+    ctx.budget(instancedVertices * kBytesPerVertex + instancedTriangles * kBytesPerTriangle,
+               "node " + std::to_string(nodeIndex) + ": the scene with this instance of mesh " + std::to_string(meshIndex) +
+                   " (" + std::to_string(uint64_t(instancedTriangles)) + " triangles in all)");
   }
 
   void addLight(int nodeIndex, const tinygltf::Value& ext, const Matrix4& world) {
@@ -680,6 +774,8 @@ struct Importer {
     if (light.color.size() == 3) color = {light.color[0], light.color[1], light.color[2]};
     if (!isFinite(color) || !std::isfinite(light.intensity) || light.intensity < 0 || color.x < 0 || color.y < 0 || color.z < 0)
       ctx.invalid("light " + std::to_string(li) + ": color and intensity must be finite and non-negative");
+    if (light.intensity * std::max({color.x, color.y, color.z}) > kMaxEmission)
+      ctx.invalid("light " + std::to_string(li) + ": intensity above 1e20; no physical light is that bright");
     out.intensity = color * light.intensity;
     out.range = light.range > 0 && std::isfinite(light.range) ? light.range : 0;
     out.innerCone = light.spot.innerConeAngle;
@@ -704,23 +800,23 @@ bool Scene::hasEmitter() const {
 }
 
 Scene importScene(const std::string& path, const ImportOptions& options) {
-  if (lowerExtension(path) == ".bpt") return importBezierPatches(path);
-  std::vector<std::string> unused;
+  if (lowerExtension(path) == ".bpt") return importBezierPatches(path, options.maxMemoryBytes);
   std::string name = std::filesystem::path(path).filename().string();
-  const std::vector<unsigned char> bytes = readFile(Context{name.empty() ? path : name, &unused}, path);
+  const std::vector<unsigned char> bytes = readRegularFile(path, name.empty() ? path : name, options.maxMemoryBytes);
   return importGltfBytes(bytes, path, options);
 }
 
 Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string& path, const ImportOptions& options) {
   Scene scene;
   scene.path = path;
-  Context ctx{std::filesystem::path(path).filename().string(), &scene.warnings};
+  Context ctx{std::filesystem::path(path).filename().string(), &scene.warnings, options.maxMemoryBytes};
   if (ctx.file.empty()) ctx.file = path;
 
   const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
   std::string jsonText;
+  uint64_t binBytes = 0;
   if (binary) {
-    jsonText = glbJson(ctx, bytes);
+    jsonText = glbJson(ctx, bytes, binBytes);
   } else {
     size_t first = 0;
     while (first < bytes.size() && std::isspace(bytes[first])) ++first;
@@ -728,6 +824,7 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
       ctx.invalid(bytes.empty() ? "not a glTF file (empty)" : "not a glTF file (neither GLB nor JSON)");
     jsonText.assign(bytes.begin(), bytes.end());
   }
+  if (std::string problem = checkJsonNesting(jsonText); !problem.empty()) ctx.invalid(problem);
   if (std::string problem = checkGltfSchema(jsonText); !problem.empty()) ctx.invalid(problem);
   const JsonSummary summary = summarizeGltfJson(jsonText);
   if (std::string message = extensionRefused(summary); !message.empty()) {
@@ -751,13 +848,33 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
     }
   if (changed && binary) glb = repackGlb(bytes, jsonText);
 
+  // Every file the document points at, through the one resolver, before tinygltf opens any.
+  std::vector<ExternalUri> external;
+  if (std::string problem = checkGltfStructure(jsonText, binary, binBytes, external); !problem.empty()) ctx.invalid(problem);
+  const AssetFolder folder = assetFolderOf(path, options.allowOutsidePaths, options.maxMemoryBytes);
+  double externalBytes = double(bytes.size());
+  for (const ExternalUri& uri : external) {
+    std::string file;
+    bool outside = false;
+    if (std::string problem = resolveAssetUri(folder, uri.uri, file, outside); !problem.empty()) ctx.invalid(uri.element + ": " + problem);
+    if (outside) ctx.warn(uri.element + ": reads " + file + ", outside the asset's folder (--allow-outside-paths)");
+    std::error_code ec;
+    const uint64_t size = std::filesystem::file_size(file, ec);
+    if (uri.isBuffer && !ec && size != uri.byteLength)
+      ctx.invalid(uri.element + ": byteLength " + std::to_string(uri.byteLength) + ", but " + oneLine(uri.uri, 80) + " holds " +
+                  std::to_string(size) + " bytes");
+    externalBytes += double(size);
+    ctx.budget(externalBytes, uri.element + " (with the files before it)");
+  }
+
   auto document = std::make_shared<SourceDocument>();
   document->binary = binary;
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(keepImageBytes, nullptr);
+  readAssetFilesThrough(loader, &folder);
   loader.SetStoreOriginalJSONForExtrasAndExtensions(false);
   std::string err, warn;
-  const std::string baseDir = std::filesystem::path(path).parent_path().string();
+  const std::string baseDir = folder.folder.string();
   const std::vector<unsigned char>& container = glb.empty() ? bytes : glb;
   bool ok = binary ? loader.LoadBinaryFromMemory(&document->model, &err, &warn, container.data(), unsigned(container.size()), baseDir)
                    : loader.LoadASCIIFromString(&document->model, &err, &warn, jsonText.data(), unsigned(jsonText.size()), baseDir);
@@ -776,8 +893,8 @@ Scene importGltfBytes(const std::vector<unsigned char>& bytes, const std::string
   if (m.defaultScene >= int(m.scenes.size()))
     ctx.invalid("scene " + std::to_string(m.defaultScene) + " does not exist (the file has " + std::to_string(m.scenes.size()) + " scenes)");
 
-  for (size_t i = 0; i < m.materials.size(); ++i) scene.materials.push_back(readMaterial(m.materials[i], int(i)));
-  scene.materials.push_back(readMaterial(tinygltf::Material{}, -1));
+  for (size_t i = 0; i < m.materials.size(); ++i) scene.materials.push_back(readMaterial(ctx, m.materials[i], int(i)));
+  scene.materials.push_back(readMaterial(ctx, tinygltf::Material{}, -1));
   scene.materials.back().name = "default material";
   decodeTextures(ctx, m, scene);
 

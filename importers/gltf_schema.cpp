@@ -7,7 +7,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -219,9 +224,210 @@ std::string checkByteRanges(const json& doc) {
   return "";
 }
 
+std::string indexName(const char* what, size_t i) { return std::string(what) + " " + std::to_string(i); }
+
+// The byte a message may show: printable as is, else as \xNN.
+std::string showByte(unsigned char c) {
+  if (c >= 0x20 && c < 0x7f) return std::string("'") + char(c) + "'";
+  char hex[8];
+  std::snprintf(hex, sizeof hex, "\\x%02X", c);
+  return hex;
+}
+
+// Strict base64 (RFC 4648, the encoding of glTF data URIs): the alphabet only, "=" padding only at
+// the end. Returns the decoded length, or a problem naming the first bad character.
+std::string checkBase64(const std::string& text, size_t from, uint64_t& decoded) {
+  size_t padding = 0, symbols = 0;
+  for (size_t i = from; i < text.size(); ++i) {
+    const unsigned char c = text[i];
+    const bool alphabet = std::isalnum(c) || c == '+' || c == '/';
+    if (c == '=' && padding < 2) {
+      ++padding;
+    } else if (!alphabet || padding > 0) {
+      return "data URI: invalid base64 " + showByte(c) + " at character " + std::to_string(i - from) +
+             (padding > 0 && alphabet ? " (after the padding)" : "");
+    } else {
+      ++symbols;
+    }
+  }
+  const size_t total = symbols + padding;
+  if (total % 4 == 1 || (padding > 0 && total % 4 != 0)) return "data URI: base64 of " + std::to_string(total) + " characters is truncated";
+  decoded = symbols / 4 * 3 + (symbols % 4 == 0 ? 0 : symbols % 4 - 1);
+  return "";
+}
+
+// A data URI's payload: "data:[<media type>][;base64],<data>"; glTF requires base64.
+std::string checkDataUri(const std::string& uri, uint64_t& decoded) {
+  const size_t comma = uri.find(',');
+  if (comma == std::string::npos) return "data URI without a comma";
+  if (uri.compare(0, 5, "data:") != 0 || comma < 12 || uri.compare(comma - 7, 7, ";base64") != 0)
+    return "data URI is not base64 (glTF requires \";base64,\")";
+  return checkBase64(uri, comma + 1, decoded);
+}
+
+bool isDataUri(const std::string& uri) { return uri.compare(0, 5, "data:") == 0; }
+
 }  // namespace
 
+std::string checkGltfSchemaPointers(const std::string& jsonText);
+
+std::string checkJsonNesting(const std::string& jsonText, int maxDepth) {
+  int depth = 0;
+  bool inString = false, escaped = false;
+  for (size_t i = 0; i < jsonText.size(); ++i) {
+    const char c = jsonText[i];
+    if (inString) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > maxDepth)
+        return "JSON arrays and objects nested deeper than " + std::to_string(maxDepth) + " levels (at byte " +
+               std::to_string(i) + ")";
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return "";
+}
+
+std::string checkGltfStructure(const std::string& jsonText, bool binary, uint64_t binChunkBytes,
+                               std::vector<ExternalUri>& external) {
+  const json doc = json::parse(jsonText);
+  const json none = json::array();
+  const json& meshes = doc.contains("meshes") ? doc["meshes"] : none;
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    const json& prims = meshes[i].contains("primitives") ? meshes[i]["primitives"] : none;
+    if (prims.empty()) return indexName("mesh", i) + ": has no primitives (glTF requires at least one)";
+    for (size_t p = 0; p < prims.size(); ++p)
+      if (const uint64_t mode = prims[p].value("mode", uint64_t(4)); mode > 6)
+        return indexName("mesh", i) + " primitive " + std::to_string(p) + ": mode " + std::to_string(mode) +
+               " is not a glTF primitive mode (0 to 6)";
+  }
+  const json& scenes = doc.contains("scenes") ? doc["scenes"] : none;
+  for (size_t s = 0; s < scenes.size(); ++s) {
+    std::set<uint64_t> roots;
+    for (const json& n : scenes[s].value("nodes", json::array()))
+      if (!roots.insert(n.get<uint64_t>()).second)
+        return indexName("scene", s) + ": lists node " + std::to_string(n.get<uint64_t>()) + " twice";
+  }
+  const json& views = doc.contains("bufferViews") ? doc["bufferViews"] : none;
+  for (size_t i = 0; i < views.size(); ++i)
+    if (views[i].contains("byteStride")) {
+      const uint64_t stride = views[i]["byteStride"].get<uint64_t>();
+      if (stride < 4 || stride > 252 || stride % 4 != 0)
+        return indexName("buffer view", i) + ": byteStride " + std::to_string(stride) +
+               " must be a multiple of 4 from 4 to 252";
+    }
+  const json& accessors = doc.contains("accessors") ? doc["accessors"] : none;
+  static const std::map<std::string, int> kComponents{{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4},
+                                                      {"MAT2", 4},   {"MAT3", 9}, {"MAT4", 16}};
+  for (size_t i = 0; i < accessors.size(); ++i) {
+    const json& a = accessors[i];
+    const std::string name = indexName("accessor", i);
+    const uint64_t componentType = a.value("componentType", uint64_t(0));
+    const int size = componentType == 5120 || componentType == 5121 ? 1
+                     : componentType == 5122 || componentType == 5123 ? 2
+                     : componentType == 5125 || componentType == 5126 ? 4 : 0;
+    if (size == 0) return name + ": componentType " + std::to_string(componentType) + " is not a glTF component type";
+    const auto type = kComponents.find(a.value("type", std::string()));
+    if (type == kComponents.end()) return name + ": type \"" + a.value("type", std::string()) + "\" is not a glTF accessor type";
+    if (!a.contains("count") || a["count"].get<uint64_t>() < 1) return name + ": count must be at least 1";
+    const uint64_t offset = a.value("byteOffset", uint64_t(0));
+    if (offset % size != 0) return name + ": byteOffset " + std::to_string(offset) + " is not a multiple of its component size";
+    if (!a.contains("bufferView")) continue;
+    const uint64_t v = a["bufferView"].get<uint64_t>();
+    if (v >= views.size()) return name + ": buffer view " + std::to_string(v) + " does not exist";
+    const uint64_t element = uint64_t(size) * type->second;
+    const uint64_t stride = views[v].value("byteStride", element);
+    if (stride < element)
+      return name + ": its " + std::to_string(element) + "-byte elements do not fit buffer view " + std::to_string(v) +
+             "'s byteStride " + std::to_string(stride);
+    if (stride % size != 0)
+      return name + ": buffer view " + std::to_string(v) + "'s byteStride " + std::to_string(stride) +
+             " is not a multiple of its component size";
+    // The range itself is checked where the accessor is read, naming its use (importer).
+  }
+  const json& buffers = doc.contains("buffers") ? doc["buffers"] : none;
+  for (size_t i = 0; i < buffers.size(); ++i) {
+    const json& b = buffers[i];
+    const std::string name = indexName("buffer", i);
+    const uint64_t byteLength = b.value("byteLength", uint64_t(0));
+    if (!b.contains("byteLength")) return name + ": byteLength is required";
+    if (!b.contains("uri")) {
+      if (!binary || i != 0) return name + ": has no uri (only a GLB's first buffer may use its BIN chunk)";
+      if (binChunkBytes == 0) return name + ": has no uri and the GLB has no BIN chunk";
+      if (byteLength > binChunkBytes)
+        return name + ": byteLength " + std::to_string(byteLength) + " exceeds the GLB's BIN chunk of " +
+               std::to_string(binChunkBytes) + " bytes";
+      continue;
+    }
+    const std::string uri = b["uri"].get<std::string>();
+    if (uri.empty()) return name + ": uri is empty";
+    if (isDataUri(uri)) {
+      uint64_t decoded = 0;
+      if (std::string problem = checkDataUri(uri, decoded); !problem.empty()) return name + ": " + problem;
+      if (decoded != byteLength)
+        return name + ": byteLength " + std::to_string(byteLength) + ", but its data URI holds " + std::to_string(decoded) + " bytes";
+    } else {
+      external.push_back({name, uri, byteLength, true});
+    }
+  }
+  const json& images = doc.contains("images") ? doc["images"] : none;
+  for (size_t i = 0; i < images.size(); ++i) {
+    const json& im = images[i];
+    const std::string name = indexName("image", i);
+    if (!im.contains("uri")) {
+      if (!im.contains("bufferView")) return name + ": has neither a uri nor a bufferView";
+      continue;
+    }
+    const std::string uri = im["uri"].get<std::string>();
+    if (uri.empty()) return name + ": uri is empty";
+    if (isDataUri(uri)) {
+      uint64_t decoded = 0;
+      if (std::string problem = checkDataUri(uri, decoded); !problem.empty()) return name + ": " + problem;
+    } else {
+      external.push_back({name, uri, 0, false});
+    }
+  }
+  return "";
+}
+
+// "/meshes/0/primitives/2/mode: expected ..." → "mesh 0 primitive 2: mode: expected ...": messages name
+// glTF elements the way the rest of radbake does.
+std::string withElementNames(const std::string& message) {
+  static const std::map<std::string, std::string> kSingular{
+      {"scenes", "scene"},       {"nodes", "node"},     {"meshes", "mesh"},         {"materials", "material"},
+      {"accessors", "accessor"}, {"bufferViews", "buffer view"}, {"buffers", "buffer"}, {"images", "image"},
+      {"textures", "texture"},   {"samplers", "sampler"}, {"skins", "skin"},        {"cameras", "camera"},
+      {"animations", "animation"}, {"primitives", "primitive"}};
+  const size_t colon = message.find(": ");
+  if (message.empty() || message[0] != '/' || colon == std::string::npos) return message;
+  std::vector<std::string> parts;
+  for (size_t start = 1; start <= colon;) {
+    const size_t end = std::min(message.find('/', start), colon);
+    parts.push_back(message.substr(start, end - start));
+    start = end + 1;
+  }
+  std::string element, rest;
+  size_t i = 0;
+  while (i + 1 < parts.size() && kSingular.count(parts[i]) && !parts[i + 1].empty() &&
+         std::all_of(parts[i + 1].begin(), parts[i + 1].end(), ::isdigit)) {
+    element += (element.empty() ? "" : " ") + kSingular.at(parts[i]) + " " + parts[i + 1];
+    i += 2;
+  }
+  for (; i < parts.size(); ++i) rest += (rest.empty() ? "" : "/") + parts[i];
+  if (element.empty()) return rest + message.substr(colon);
+  return element + (rest.empty() ? "" : ": " + rest) + message.substr(colon);
+}
+
 std::string checkGltfSchema(const std::string& jsonText) {
+  return withElementNames(checkGltfSchemaPointers(jsonText));
+}
+
+std::string checkGltfSchemaPointers(const std::string& jsonText) {
   json doc = json::parse(jsonText, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) return "not valid JSON";
   if (!doc.is_object()) return "the top level is not a JSON object";

@@ -111,6 +111,11 @@ struct ImportOptions {
   // false (radbake info): report extensions radbake cannot bake instead of failing on them.
   bool requireSupportedExtensions = true;
   int scene = -1;  // the glTF scene to bake; -1: the document's default scene (or the first)
+  // Buffers and images are read only from the asset's folder unless this is set (--allow-outside-paths).
+  bool allowOutsidePaths = false;
+  // The memory budget (--max-memory): files, accessors, decoded textures and the instanced scene are
+  // estimated before they are allocated, and refused (exit 3, naming the element) past it.
+  uint64_t maxMemoryBytes = physicalMemoryBytes();
 };
 
 // The texture's color at (u, v) after the reference's transform: bilinear filtering, the sampler's

@@ -26,6 +26,31 @@ int wrap(int i, int n, int mode) {
 
 }  // namespace
 
+bool imageDimensions(const std::vector<unsigned char>& encoded, int& width, int& height) {
+  int channels = 0;
+  if (encoded.empty() || encoded.size() > size_t(INT32_MAX)) return false;
+  return stbi_info_from_memory(encoded.data(), int(encoded.size()), &width, &height, &channels) == 1;
+}
+
+std::string implausibleImage(const std::vector<unsigned char>& encoded, int width, int height) {
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  const double pixels = double(width) * height;
+  double limit = 0;  // the most raw bytes the file's size can encode
+  double raw = 0;
+  if (encoded.size() >= 29 && std::equal(kPng, kPng + 8, encoded.begin())) {
+    const int depth = encoded[24], colorType = encoded[25];
+    const int channels = colorType == 2 ? 3 : colorType == 4 ? 2 : colorType == 6 ? 4 : 1;
+    raw = double(height) * (1 + std::ceil(double(width) * channels * depth / 8));
+    limit = 1032.0 * double(encoded.size()) + 65536;  // deflate's largest ratio, with room for headers
+  } else {
+    raw = pixels / 64;  // JPEG and the rest: at least about one bit per 8×8 block
+    limit = 8.0 * double(encoded.size()) + 65536;
+  }
+  if (raw <= limit) return "";
+  return "its header claims " + std::to_string(width) + "x" + std::to_string(height) + " pixels, more than its " +
+         std::to_string(encoded.size()) + " bytes can hold (truncated or a decompression bomb)";
+}
+
 bool decodeColorTexture(const std::vector<unsigned char>& encoded, Texture& out, std::string& error) {
   int w = 0, h = 0, channels = 0;
   if (encoded.empty() || encoded.size() > size_t(INT32_MAX)) {

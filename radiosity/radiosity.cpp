@@ -602,6 +602,7 @@ void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::v
     if (options.progress) options.progress(0.8 + 0.2 * std::min(1.0, std::log(residual) / std::log(options.relativeResidual)));
     if (residual <= options.relativeResidual) break;
   }
+  solution.converged = solution.residual <= options.relativeResidual;
 }
 
 // Irradiance at x (normal n) from the punctual lights, shadowed (KHR_lights_punctual: intensity

@@ -35,6 +35,7 @@ struct Solution {
   std::vector<Vec3> vertexRadiance;  // per PatchMesh vertex (bilinear; constant: area-weighted patch average)
   std::vector<Vec3> patchRadiance;   // per patch (constant method)
   int iterations = 0;
+  bool converged = true;  // false: maxIterations ran out before the residual reached the tolerance
   double residual = 0;  // relative, as in RadiosityOptions
   bool interreflection = false;  // false: emission only (L = L⁰)
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)

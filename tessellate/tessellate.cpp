@@ -6,6 +6,7 @@
 #include <limits>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <tuple>
@@ -17,6 +18,35 @@ namespace {
 constexpr uint32_t kUnused = UINT32_MAX;
 constexpr int kMaxRate = 4096;                 // per face edge, as --subdivide allows
 constexpr size_t kMaxPatches = size_t(1) << 24;  // 16.7M patches: past this a bake cannot finish
+constexpr int kMaxCurvedRate = 256;              // per patch edge, on curved surfaces
+// What a patch holds from tessellation to solve (its vertices, the ray-tracing structure, the
+// solver's state): the estimate checked against --max-memory before a subdivision is made.
+constexpr double kBytesPerPatch = 1024;
+
+// Refuses `patches` past the patch limit or the memory budget; `what` names the surface.
+void checkPatchBudget(double patches, const TessellateOptions& options, const std::string& file, const std::string& what) {
+  if (patches > double(kMaxPatches))
+    throw Error(ExitCode::kUnsupported, file + ": " + what + " would need more than " + std::to_string(kMaxPatches) +
+                                            " patches at this subdivision");
+  if (patches * kBytesPerPatch > double(options.maxMemoryBytes))
+    throw Error(ExitCode::kUnsupported, file + ": " + what + " would need " + std::to_string(uint64_t(patches)) +
+                                            " patches, about " + formatBytes(patches * kBytesPerPatch) +
+                                            ", past the memory budget of " + formatBytes(double(options.maxMemoryBytes)) +
+                                            " (--max-memory)");
+}
+
+std::string fileName(const Scene& scene) { return std::filesystem::path(scene.path).filename().string(); }
+
+// A chord the finest curved rate cannot meet is a mistake in the options, not a reason to
+// tessellate forever (--max-chord 1e-12 on a teapot).
+[[noreturn]] void chordUnreachable(const TessellateOptions& options, double reached, const std::string& what) {
+  char asked[32], text[32];
+  std::snprintf(asked, sizeof asked, "%g", options.maxChord);
+  std::snprintf(text, sizeof text, "%.3g", reached);
+  throw Error(ExitCode::kUsage, std::string("radbake: --max-chord ") + asked + " cannot be met: " + what +
+                                    " at the finest rate (" + std::to_string(kMaxCurvedRate) + " per patch edge) is still " +
+                                    text + " from the surface");
+}
 
 // Welding: exact position bits (edge points are computed canonically, so coincident points are
 // bit-identical) and the material; among vertices at that point, the first whose normal is within
@@ -349,7 +379,12 @@ void tessellateSubdivided(const Scene& scene, int primIndex, SubdivisionScheme s
   // Rates are computed in double and clamped before becoming ints: absurd geometry must not overflow.
   double wanted = std::max(double(options.subdivide), std::ceil(longestEdge / std::sqrt(8 * (size / 2) * chord)));
   if (options.maxEdgeLength > 0) wanted = std::max(wanted, std::ceil(longestEdge / options.maxEdgeLength));
-  const int rate = int(std::clamp(wanted, 1.0, 256.0));
+  if (options.maxChord > 0 && wanted > kMaxCurvedRate)
+    chordUnreachable(options, longestEdge * longestEdge / (8 * kMaxCurvedRate * kMaxCurvedRate * (size / 2)),
+                     "mesh " + std::to_string(prim.mesh));
+  const int rate = int(std::clamp(wanted, 1.0, double(kMaxCurvedRate)));
+  checkPatchBudget(double(cageFaces.size()) * rate * rate * (scheme == SubdivisionScheme::kLoop ? 1.5 : 1.0) + double(mesh.patches.size()),
+                   options, fileName(scene), "mesh " + std::to_string(prim.mesh));
   mesh.curvedRate = std::max(mesh.curvedRate, rate);
 
   const LimitTessellation limit = tessellateLimitSurface(cage, cageFaces, scheme, rate);
@@ -566,10 +601,13 @@ int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions&
   for (const BezierPatch& p : patches)
     for (const Vec3& c : p.control) bounds.add(c);
   const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * bounds.diagonal();
-  constexpr int kMaxRate = 256;
+  constexpr int kMaxRate = kMaxCurvedRate;
   int rate = std::max(1, options.subdivide);
   for (const BezierPatch& p : patches) {
     while (rate < kMaxRate && chordError(p, rate) > chord) rate = std::min(kMaxRate, rate * 2);
+    if (options.maxChord > 0 && rate == kMaxRate)
+      if (const double reached = chordError(p, rate); reached > chord)
+        chordUnreachable(options, reached, "Bezier patch " + std::to_string(&p - patches.data()));
     if (options.maxEdgeLength > 0)
       while (rate < kMaxRate) {
         double longest = 0;
@@ -590,6 +628,8 @@ int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions&
 void tessellateBezier(const Scene& scene, const TessellateOptions& options, Welder& welder, PatchMesh& mesh) {
   if (scene.bezierPatches.empty()) return;
   const int n = bezierRate(scene.bezierPatches, options);
+  checkPatchBudget(double(scene.bezierPatches.size()) * n * n + double(mesh.patches.size()), options, fileName(scene),
+                   "the Bezier surface");
   mesh.curvedRate = n;
   GeneratedSurface surface;
   surface.material = scene.bezierPatches.front().material;
@@ -665,10 +705,8 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
     const size_t first = mesh.patches.size();
     const double rate = subdivisionFor(scene.primitives[p], options);
-    if (double(scene.primitives[p].triangles.size()) * rate * rate + double(mesh.patches.size()) > double(kMaxPatches))
-      throw Error(ExitCode::kUnsupported, std::filesystem::path(scene.path).filename().string() + ": mesh " +
-                                              std::to_string(scene.primitives[p].mesh) + " would need more than " +
-                                              std::to_string(kMaxPatches) + " patches at this subdivision");
+    checkPatchBudget(double(scene.primitives[p].triangles.size()) * rate * rate + double(mesh.patches.size()), options,
+                     fileName(scene), "mesh " + std::to_string(scene.primitives[p].mesh));
     const SubdivisionScheme scheme = scene.primitives[p].subdivision != SubdivisionScheme::kNone
                                          ? scene.primitives[p].subdivision
                                          : options.subdivisionSurfaces;

@@ -110,6 +110,9 @@ struct TessellateOptions {
   // Treat every mesh as a subdivision surface of this scheme (--subdivision-surfaces); meshes
   // flagged in their extras use their own scheme.
   SubdivisionScheme subdivisionSurfaces = SubdivisionScheme::kNone;
+  // The memory budget (--max-memory): a subdivision whose patches would need more (estimated
+  // before they are made) is refused with exit 3 naming the mesh.
+  uint64_t maxMemoryBytes = UINT64_MAX;
 };
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options = {});

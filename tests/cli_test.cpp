@@ -434,18 +434,18 @@ INSTANTIATE_TEST_SUITE_P(
     Assets, InvalidAsset,
     ::testing::Values(Broken{"AllIndicesOutOfRange/AllIndicesOutOfRange.gltf", "indices accessor 0 element 0 is 65535"},
                       Broken{"BoxWithInfinites/BoxWithInfinites.glb", "POSITION accessor 2 element 0 is not finite"},
-                      Broken{"IncorrectVertexArrays/Cube.gltf", "/bufferViews/2: bytes up to 936 exceed buffer 0 byteLength 514"},
+                      Broken{"IncorrectVertexArrays/Cube.gltf", "buffer view 2: bytes up to 936 exceed buffer 0 byteLength 514"},
                       Broken{"IndexOutOfRange/IndexOutOfRange.gltf", "indices accessor 0 element 0 is 255"},
                       Broken{"MissingBin/BoxTextured.gltf", "BoxTextured0.bin"},
                       Broken{"NoScene/NoScene.gltf", "scene 0 does not exist"},
                       Broken{"RecursiveNodes/RecursiveNodes.gltf", "node cycle"},
-                      Broken{"SceneWrongType/sceneWrongType.gltf", "/scene: expected a non-negative integer"},
+                      Broken{"SceneWrongType/sceneWrongType.gltf", "scene: expected a non-negative integer"},
                       Broken{"TexcoordCrash/texcoord_crash.gltf", "needs TEXCOORD_0"},
-                      Broken{"WrongTypes-array/badArray.gltf", "/meshes/0/primitives: expected an array"},
+                      Broken{"WrongTypes-array/badArray.gltf", "mesh 0: primitives: expected an array"},
                       Broken{"WrongTypes-extension/badExtension.gltf", "KHR_texture_transform: expected an object"},
-                      Broken{"WrongTypes-number/badNumber.gltf", "/materials/0/normalTexture/scale: expected a number"},
-                      Broken{"WrongTypes-object/badObject.gltf", "/materials/0/pbrMetallicRoughness: expected an object"},
-                      Broken{"WrongTypes-string/badString.gltf", "/scenes/0/name: expected a string"},
+                      Broken{"WrongTypes-number/badNumber.gltf", "material 0: normalTexture/scale: expected a number"},
+                      Broken{"WrongTypes-object/badObject.gltf", "material 0: pbrMetallicRoughness: expected an object"},
+                      Broken{"WrongTypes-string/badString.gltf", "scene 0: name: expected a string"},
                       Broken{"WrongTypes-uint/badUint.gltf", "baseColorTexture/index: expected a non-negative integer"}),
     [](const ::testing::TestParamInfo<Broken>& info) {
       std::string name = fs::path(info.param.file).parent_path().string();
@@ -897,7 +897,7 @@ TEST(Fuzz, CrashesFoundByFuzzingStayFixed) {
   EXPECT_GE(checked, 1);
   // The first one: an image's buffer view one byte past its buffer, which tinygltf read past.
   const RunResult r = radbake({"bake", (dir / "image_view_past_buffer.glb").string(), "-o", (tempDir() / "f.glb").string()});
-  EXPECT_EQ(r.err, "error: image_view_past_buffer.glb: /bufferViews/3: bytes up to 3273 exceed buffer 0 byteLength 3272\n");
+  EXPECT_EQ(r.err, "error: image_view_past_buffer.glb: buffer view 3: bytes up to 3273 exceed buffer 0 byteLength 3272\n");
   // The second: signed (SHORT) indices, whose negative values became huge vertex indices.
   const RunResult s = radbake({"bake", (dir / "signed_indices.gltf").string(), "-o", (tempDir() / "f.glb").string()});
   EXPECT_EQ(s.err, "error: signed_indices.gltf: mesh 3 primitive 0: indices accessor 11 must have an unsigned integer componentType\n");

@@ -29,7 +29,8 @@ namespace radbake {
 namespace {
 
 constexpr const char* kExitCodes =
-    "exit codes: 0 ok, 1 usage, 2 invalid input, 3 unsupported feature, 4 cannot write output";
+    "exit codes: 0 ok, 1 usage, 2 invalid input, 3 unsupported feature or past --max-memory, 4 cannot write output, "
+    "5 the solve did not converge (--strict)";
 
 // Stage progress on stderr: a bar for people, JSON lines for the Blender add-on and pipelines.
 class Progress {
@@ -72,6 +73,9 @@ class Progress {
   bool barOpen_ = false;
 };
 
+// Below this no bake runs at all (the program and its libraries take about as much).
+constexpr uint64_t kMinMemory = uint64_t(64) << 20;
+
 nlohmann::json vec3Json(const Vec3& v) { return {v.x, v.y, v.z}; }
 
 // --sky R,G,B (or one number for grey): non-negative finite radiance.
@@ -89,10 +93,10 @@ Vec3 parseSky(const std::string& text) {
 }
 
 // Probe points: CSV with a header, x,y,z,nx,ny,nz per line (world space).
-std::vector<std::pair<Vec3, Vec3>> readProbes(const std::string& path) {
+std::vector<std::pair<Vec3, Vec3>> readProbes(const std::string& path, uint64_t maxBytes) {
   const std::string name = std::filesystem::path(path).filename().string();
-  std::ifstream in(path);
-  if (!in) throw Error(ExitCode::kInvalidInput, name + ": cannot open: no such file or unreadable");
+  const std::vector<unsigned char> bytes = readRegularFile(path, name.empty() ? path : name, maxBytes);
+  std::istringstream in(std::string(bytes.begin(), bytes.end()));
   std::vector<std::pair<Vec3, Vec3>> probes;
   std::string line;
   int lineNumber = 0;
@@ -112,6 +116,31 @@ std::vector<std::pair<Vec3, Vec3>> readProbes(const std::string& path) {
     probes.push_back({{v[0], v[1], v[2]}, normalize(normal)});
   }
   return probes;
+}
+
+// Every output's folder must exist before the work starts: a typo in --report should not cost a
+// solve (and then nothing would be written anyway: outputs are all or nothing). No two outputs may
+// be one file, and only -o may be the input.
+void checkOutputFolders(const std::string& input, const std::vector<std::pair<const char*, std::string>>& outputs) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  auto same = [&](const std::string& a, const std::string& b) { return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec); };
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const auto& [option, path] = outputs[i];
+    if (path.empty()) continue;
+    // Only -o may name the input (a deliberate in-place bake); a report or lightmap over it is a slip.
+    if (i > 0 && same(path, input))
+      throw Error(ExitCode::kUsage, std::string("radbake: ") + option + " " + path + " is the input; it would be overwritten");
+    for (size_t j = 0; j < i; ++j)
+      if (!outputs[j].second.empty() && same(path, outputs[j].second))
+        throw Error(ExitCode::kUsage, std::string("radbake: ") + option + " " + path + " is also the " + outputs[j].first + " file");
+    const fs::path target(path);
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : ".";
+    if (!fs::is_directory(dir, ec))
+      throw Error(ExitCode::kCannotWrite, path + ": cannot write: directory " + dir.string() + " does not exist (" + option + ")");
+    if (fs::is_directory(target, ec))
+      throw Error(ExitCode::kCannotWrite, path + ": cannot write: it is a directory (" + option + ")");
+  }
 }
 
 std::string probeValues(const std::vector<std::pair<Vec3, Vec3>>& probes, const Solution& solution, const PatchMesh& mesh) {
@@ -206,7 +235,12 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
     throw Error(ExitCode::kUsage, "radbake: --report " + options.report + " must end in .json");
   if (options.probe.empty() != options.probeOut.empty())
     throw Error(ExitCode::kUsage, "radbake: --probe and --probe-out go together");
-  const auto probes = options.probe.empty() ? std::vector<std::pair<Vec3, Vec3>>{} : readProbes(options.probe);
+  const std::string preview =
+      options.lightmap.empty() ? "" : std::filesystem::path(options.lightmap).replace_extension(".preview.png").string();
+  checkOutputFolders(options.input, {{"-o", options.output}, {"--report", options.report}, {"--probe-out", options.probeOut},
+                                     {"--lightmap", options.lightmap}, {"--lightmap preview", preview}});
+  const uint64_t maxMemory = options.maxMemory.value_or(physicalMemoryBytes());
+  const auto probes = options.probe.empty() ? std::vector<std::pair<Vec3, Vec3>>{} : readProbes(options.probe, maxMemory);
   ExportOptions exportOptions;
   exportOptions.display = {options.ocioConfig, options.display, options.view, options.exposure};
   exportOptions.lightmap = {options.lightmap, options.lightmapSize, options.texelSize};
@@ -224,7 +258,12 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   progress.stage("import");
   ImportOptions importOptions;
   importOptions.scene = options.scene;
+  importOptions.allowOutsidePaths = options.allowOutsidePaths;
+  importOptions.maxMemoryBytes = maxMemory;
   Scene scene = importScene(options.input, importOptions);
+  if (!options.probe.empty() && probes.empty())
+    scene.warnings.push_back(std::filesystem::path(options.probe).filename().string() +
+                             ": no probe points; " + options.probeOut + " holds the header only");
   if (!scene.hasEmitter())
     scene.warnings.push_back(std::filesystem::path(options.input).filename().string() +
                              ": no emitter (no emissive material): the bake is black");
@@ -237,6 +276,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (options.subdivisionSurfaces == "catmull-clark") tessellateOptions.subdivisionSurfaces = SubdivisionScheme::kCatmullClark;
   if (options.subdivisionSurfaces == "loop") tessellateOptions.subdivisionSurfaces = SubdivisionScheme::kLoop;
   tessellateOptions.flatPatches = options.method == "constant";
+  tessellateOptions.maxMemoryBytes = maxMemory;
   const PatchMesh mesh = tessellate(scene, tessellateOptions);
   const auto t2 = Clock::now();
   progress.stage("solve");
@@ -245,13 +285,27 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   radiosityOptions.method = options.method == "constant" ? Method::kConstant : Method::kBilinear;
   if (options.sky) radiosityOptions.sky = parseSky(*options.sky);
   radiosityOptions.progress = [&](double f) { progress.report(f); };
+  // The stored transport may take a quarter of the budget; past it the solve runs matrix-free.
+  radiosityOptions.matrixMemoryBytes = std::min<uint64_t>(radiosityOptions.matrixMemoryBytes, maxMemory / 4);
   const Solution solution = solveRadiosity(scene, mesh, radiosityOptions);
   const auto t3 = Clock::now();
+  if (!solution.converged) {
+    std::ostringstream message;
+    message << std::filesystem::path(options.input).filename().string() << ": the solve did not converge: relative residual "
+            << std::setprecision(3) << solution.residual << " after " << solution.iterations << " iterations (--tolerance "
+            << options.tolerance << "); reflectance at or near 1 in a closed scene has no steady state";
+    if (options.strict) throw Error(ExitCode::kNotConverged, message.str() + " (--strict: nothing written)");
+    scene.warnings.push_back(message.str());
+  }
   progress.stage("export");
+  // Every output is gathered first and written all at once at the end (all or nothing); the glTF
+  // goes last, so that when -o names the input it is replaced only after everything else is in place.
+  std::vector<std::pair<std::string, std::string>> files;
   const ExportSummary summary =
-      writeGltf(options.output, scene, mesh, solution.vertexRadiance,
-                options.method == "constant" ? solution.patchRadiance : std::vector<Vec3>{}, exportOptions);
-  if (!probes.empty()) writeFileAtomically(options.probeOut, probeValues(probes, solution, mesh));
+      exportGltf(options.output, scene, mesh, solution.vertexRadiance,
+                 options.method == "constant" ? solution.patchRadiance : std::vector<Vec3>{}, exportOptions, files);
+  std::rotate(files.begin(), files.begin() + 1, files.end());
+  if (!options.probeOut.empty()) files.insert(files.end() - 1, {options.probeOut, probeValues(probes, solution, mesh)});
   const auto t4 = Clock::now();
   progress.finishBar();
 
@@ -266,6 +320,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                     {"clonedMeshes", summary.clonedMeshes}, {"curvedRate", mesh.curvedRate},
                     {"worstNonPlanarity", mesh.worstNonPlanarity}, {"splitFacets", mesh.splitFacets}}},
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
+                    {"converged", solution.converged},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree},
                     {"enclosedUnknowns", solution.enclosedUnknowns}, {"closureCorrection", solution.closureCorrection},
@@ -281,8 +336,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
         {"timings", {{"import", seconds(t0, t1)}, {"tessellate", seconds(t1, t2)}, {"solve", seconds(t2, t3)},
                      {"export", seconds(t3, t4)}, {"total", seconds(t0, t4)}}},
         {"warnings", scene.warnings}};
-    writeFileAtomically(options.report, report.dump(2) + "\n");
+    files.insert(files.end() - 1, {options.report, report.dump(2) + "\n"});
   }
+  writeFilesAtomically(files);
   if (!options.quiet) {
     out << "radbake: wrote " << options.output << " (" << mesh.patches.size() << " patches, "
         << mesh.positions.size() << " vertices, " << std::fixed << std::setprecision(2) << seconds(t0, t4) << " s)";
@@ -301,6 +357,24 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
 
 }  // namespace
 
+// A number option must be finite and within [lo, hi]: CLI11's ranges let NaN through (every
+// comparison with NaN is false), and --exposure nan would turn every color into 1.
+CLI::Validator finiteIn(double lo, double hi, const std::string& what) {
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        double v = 0;
+        size_t used = 0;
+        try {
+          v = std::stod(text, &used);
+        } catch (const std::exception&) {
+          return "expected a number, got " + oneLine(text, 40);
+        }
+        if (used != text.size() || !std::isfinite(v) || v < lo || v > hi) return "expected " + what + ", got " + oneLine(text, 40);
+        return "";
+      },
+      what);
+}
+
 ParseResult parseCommandLine(const std::vector<std::string>& args) {
   Options o;
   CLI::App app{"radbake: bake diffuse global illumination (bilinear vertex radiosity) into glTF assets", "radbake"};
@@ -317,9 +391,9 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--subdivide", o.subdivide, "split every input face into N×N patches (default 1)")
       ->check(CLI::Range(1, 4096));
   bakeCmd->add_option("--max-edge", o.maxEdge, "refine until no patch edge is longer than LENGTH (scene units)")
-      ->check(CLI::PositiveNumber);
+      ->check(finiteIn(1e-30, 1e30, "a positive length"));
   bakeCmd->add_option("--max-chord", o.maxChord, "curved surfaces: largest distance between a patch and the surface")
-      ->check(CLI::PositiveNumber);
+      ->check(finiteIn(1e-30, 1e30, "a positive length"));
   bakeCmd->add_option("--subdivision-surfaces", o.subdivisionSurfaces,
                       "treat every mesh as a subdivision surface: catmull-clark or loop (meshes can also be flagged "
                       "in their extras, see docs/subdivision.md)")
@@ -331,9 +405,11 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--lightmap-size", o.lightmapSize, "largest lightmap width and height in texels (default 1024)")
       ->check(CLI::Range(16, 16384));
   bakeCmd->add_option("--texel-size", o.texelSize, "lightmap texel size in scene units (default: the finest that fits)")
-      ->check(CLI::PositiveNumber);
+      ->check(finiteIn(1e-30, 1e30, "a positive length"));
   bakeCmd->add_option("--exposure", o.exposure,
-                      "exposure in EV for COLOR_0 and previews (default: automatic, the 90th percentile of lit surfaces at 0.8)");
+                      "exposure in EV for COLOR_0 and previews, -64 to 64 (default: automatic, the 90th percentile of lit "
+                      "surfaces at 0.8)")
+      ->check(finiteIn(-64, 64, "an exposure from -64 to 64 EV"));
   bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0 (built in: \"ACES 1.0 SDR-video\" (default), \"Standard\")");
   bakeCmd->add_option("--display", o.display, "OCIO display for COLOR_0 (built in: \"sRGB\")");
   bakeCmd->add_option("--ocio-config", o.ocioConfig, "OCIO config file (default: $OCIO, else built in)");
@@ -342,9 +418,24 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--report", o.report, "write a JSON summary: counts, timings, residual, warnings");
   bakeCmd->add_option("--sky", o.sky, "uniform sky radiance R,G,B for open scenes");
   bakeCmd->add_option("--tolerance", o.tolerance, "relative residual at which the solver stops (default 1e-6)")
-      ->check(CLI::Range(1e-15, 1.0));
+      ->check(finiteIn(1e-15, 1.0, "a tolerance from 1e-15 to 1"));
+  bakeCmd->add_flag("--strict", o.strict, "fail (exit 5, nothing written) when the solve does not reach the tolerance");
   bakeCmd->add_option("--threads", o.threads, "worker threads (default: all cores)")->check(CLI::Range(1, 1024));
   bakeCmd->add_flag("-q,--quiet", o.quiet, "print errors only");
+  std::string maxMemory;
+  auto addSafetyOptions = [&](CLI::App* cmd) {
+    cmd->add_flag("--allow-outside-paths", o.allowOutsidePaths,
+                  "read buffers and images outside the asset's folder (absolute paths, \"..\", links leading out)");
+    cmd->add_option("--max-memory", maxMemory,
+                    "memory budget, e.g. 2G or 512M (default: the machine's memory); inputs estimated past it exit 3")
+        ->check(CLI::Validator(
+            [](std::string& text) {
+              const auto bytes = parseByteSize(text);
+              return bytes && *bytes >= kMinMemory ? "" : "expected a size such as 2G or 512M, at least 64M";
+            },
+            "SIZE"));
+  };
+  addSafetyOptions(bakeCmd);
   std::string progress = "auto";
   bakeCmd->add_option("--progress", progress, "bar, json (lines on stderr), none; default: a bar on a terminal")
       ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
@@ -352,6 +443,7 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   CLI::App* infoCmd = app.add_subcommand("info", "print what the importer sees in INPUT");
   infoCmd->add_option("input", o.input, "input scene (.gltf, .glb)")->required();
   infoCmd->add_flag("--json", o.json, "machine-readable output");
+  addSafetyOptions(infoCmd);
 
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {
@@ -361,8 +453,9 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
     help << app.help();
     return {std::nullopt, 0, help.str()};
   } catch (const CLI::ParseError& e) {
-    return {std::nullopt, int(ExitCode::kUsage), std::string("radbake: ") + e.what() + " (see radbake --help)"};
+    return {std::nullopt, int(ExitCode::kUsage), "error: " + oneLine(std::string("radbake: ") + e.what() + " (see radbake --help)")};
   }
+  if (!maxMemory.empty()) o.maxMemory = parseByteSize(maxMemory);
   if (version) {
     o.command = Command::kVersion;
   } else if (bakeCmd->parsed()) {
@@ -390,6 +483,8 @@ int run(const Options& options, std::ostream& out, std::ostream& err) {
       case Command::kInfo: {
               ImportOptions importOptions;
         importOptions.requireSupportedExtensions = false;
+        importOptions.allowOutsidePaths = options.allowOutsidePaths;
+        importOptions.maxMemoryBytes = options.maxMemory.value_or(physicalMemoryBytes());
         printInfo(importScene(options.input, importOptions), options, out);
         return 0;
       }
@@ -403,11 +498,11 @@ int run(const Options& options, std::ostream& out, std::ostream& err) {
     err << "error: " << e.what() << "\n";
     return int(e.code());
   } catch (const std::bad_alloc&) {
-    err << "error: " << options.input << ": out of memory\n";
+    err << "error: " << oneLine(options.input + ": out of memory (--max-memory sets the budget radbake checks inputs against)") << "\n";
     return int(ExitCode::kUnsupported);
   } catch (const std::exception& e) {
     // A library threw something we did not map: still one line, never a crash.
-    err << "error: " << options.input << ": " << e.what() << "\n";
+    err << "error: " << oneLine(options.input + ": " + e.what()) << "\n";
     return int(ExitCode::kInvalidInput);
   }
 }

@@ -2,6 +2,7 @@
 // exit codes (DESIGN.md). main.cpp only forwards argv here, so all of it is testable in-process.
 #pragma once
 
+#include <cstdint>
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -31,6 +32,9 @@ struct Options {
   std::string report;
   std::optional<std::string> sky;
   double tolerance = 1e-6;
+  bool strict = false;               // a solve that does not converge is an error (exit 5)
+  bool allowOutsidePaths = false;    // buffers and images may lie outside the asset's folder
+  std::optional<uint64_t> maxMemory;  // bytes; default: the machine's physical memory
   int threads = 0;  // 0: all cores
   bool quiet = false;
   bool json = false;  // `info --json`

@@ -12,8 +12,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::vector<unsigned char> bytes(data, data + size);
   try {
     // A directory that does not exist: external URIs fail cleanly instead of reading the disk.
-    const radbake::Scene scene = radbake::importGltfBytes(bytes, "/nonexistent-radbake-fuzz/input.glb");
-    radbake::tessellate(scene);
+    radbake::ImportOptions importOptions;
+    importOptions.maxMemoryBytes = uint64_t(256) << 20;  // keeps each run small, as --max-memory would
+    const radbake::Scene scene = radbake::importGltfBytes(bytes, "/nonexistent-radbake-fuzz/input.glb", importOptions);
+    radbake::TessellateOptions tessellateOptions;
+    tessellateOptions.maxMemoryBytes = importOptions.maxMemoryBytes;
+    radbake::tessellate(scene, tessellateOptions);
   } catch (const radbake::Error&) {
     // the documented failure
   }

@@ -1,0 +1,21 @@
+// libFuzzer target for the Bezier patch (.bpt) reader and its tessellation: any text must either
+// import and tessellate or fail with a radbake::Error, never crash, hang or trip a sanitizer.
+// Build and run: scripts/fuzz.sh [seconds] bpt
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "importers/bpt_importer.h"
+#include "tessellate/tessellate.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  try {
+    const radbake::Scene scene = radbake::parseBezierPatches(std::string(data, data + size), "input.bpt");
+    radbake::TessellateOptions options;
+    options.maxMemoryBytes = uint64_t(256) << 20;  // keeps each run small, as --max-memory would
+    radbake::tessellate(scene, options);
+  } catch (const radbake::Error&) {
+    // the documented failure
+  }
+  return 0;
+}
