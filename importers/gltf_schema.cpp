@@ -350,6 +350,18 @@ std::string checkGltfStructure(const std::string& jsonText, bool binary, uint64_
              " is not a multiple of its component size";
     // The range itself is checked where the accessor is read, naming its use (importer).
   }
+  // A buffer's or image's uri: not empty; a data URI in strict base64 (its length in `decoded`), or
+  // a file, listed in `external` for the resolver.
+  auto checkUri = [&](const std::string& name, const std::string& uri, uint64_t byteLength, bool isBuffer,
+                      uint64_t& decoded) -> std::string {
+    if (uri.empty()) return name + ": uri is empty";
+    if (!isDataUri(uri)) {
+      external.push_back({name, uri, byteLength, isBuffer});
+      return "";
+    }
+    const std::string problem = checkDataUri(uri, decoded);
+    return problem.empty() ? "" : name + ": " + problem;
+  };
   const json& buffers = doc.contains("buffers") ? doc["buffers"] : none;
   for (size_t i = 0; i < buffers.size(); ++i) {
     const json& b = buffers[i];
@@ -364,16 +376,11 @@ std::string checkGltfStructure(const std::string& jsonText, bool binary, uint64_
                std::to_string(binChunkBytes) + " bytes";
       continue;
     }
-    const std::string uri = b["uri"].get<std::string>();
-    if (uri.empty()) return name + ": uri is empty";
-    if (isDataUri(uri)) {
-      uint64_t decoded = 0;
-      if (std::string problem = checkDataUri(uri, decoded); !problem.empty()) return name + ": " + problem;
-      if (decoded != byteLength)
-        return name + ": byteLength " + std::to_string(byteLength) + ", but its data URI holds " + std::to_string(decoded) + " bytes";
-    } else {
-      external.push_back({name, uri, byteLength, true});
-    }
+    uint64_t decoded = 0;
+    if (std::string problem = checkUri(name, b["uri"].get<std::string>(), byteLength, true, decoded); !problem.empty())
+      return problem;
+    if (isDataUri(b["uri"].get<std::string>()) && decoded != byteLength)
+      return name + ": byteLength " + std::to_string(byteLength) + ", but its data URI holds " + std::to_string(decoded) + " bytes";
   }
   const json& images = doc.contains("images") ? doc["images"] : none;
   for (size_t i = 0; i < images.size(); ++i) {
@@ -383,14 +390,8 @@ std::string checkGltfStructure(const std::string& jsonText, bool binary, uint64_
       if (!im.contains("bufferView")) return name + ": has neither a uri nor a bufferView";
       continue;
     }
-    const std::string uri = im["uri"].get<std::string>();
-    if (uri.empty()) return name + ": uri is empty";
-    if (isDataUri(uri)) {
-      uint64_t decoded = 0;
-      if (std::string problem = checkDataUri(uri, decoded); !problem.empty()) return name + ": " + problem;
-    } else {
-      external.push_back({name, uri, 0, false});
-    }
+    uint64_t decoded = 0;
+    if (std::string problem = checkUri(name, im["uri"].get<std::string>(), 0, false, decoded); !problem.empty()) return problem;
   }
   return "";
 }

@@ -16,6 +16,7 @@
 #include "core/core.h"
 #include "radiosity/enclosure.h"
 #include "radiosity/form_factor.h"
+#include "radiosity/cluster_tree.h"
 #include "radiosity/visibility.h"
 
 namespace radbake {
@@ -69,6 +70,31 @@ struct Transport {
   std::vector<uint32_t> column;
   std::vector<double> value;
   bool stored() const { return !start.empty(); }
+};
+
+// Hierarchical transport (docs/radiosity.md): what vertex i gathers is
+//   rowScale_i · (Σ_j near_ij L_j + n_i · Φ(p_i)),
+// near entries exact as in Transport, and Φ the vector irradiance of the far clusters: for each
+// receiver group G ∋ i, Σ_links Φ_C(p) with Φ_C(p) = −w (w · M_C) / (π |w|⁴), w = c_C − p, M_C the
+// cluster's vector moment of L. Each group keeps Φ at its centroid and its gradient, so that a
+// receiver off the centroid is served to second order.
+struct ClusterLink {
+  uint32_t source;  // node of the source tree
+  Vec3 w;           // from the group's centroid to the cluster's
+};
+
+struct Hierarchical {
+  ClusterTree source, receiver;                     // over patches, over vertices
+  std::vector<std::array<double, 4>> shapeAreas;    // per patch, A_j = ∫ N_j dA (the moments)
+  std::vector<size_t> start;                        // near entries per vertex (CSR)
+  std::vector<uint32_t> column;
+  std::vector<double> value;
+  std::vector<size_t> linkStart;                    // links per receiver node (CSR)
+  std::vector<ClusterLink> links;
+  std::vector<uint32_t> leafOf;                     // vertex → its leaf in the receiver tree
+  std::vector<double> rowScale;                     // closure (0: dark or facing nothing)
+  std::vector<Vec3> normal;                         // receiving normal per vertex
+  size_t rays = 0;
 };
 
 // Closure (docs/radiosity.md): an enclosed unknown's hemisphere is covered by the scene, so its row
@@ -398,6 +424,31 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
   return out;
 }
 
+// K_ij of one source patch for vertex i (the exact kernel times its visible fraction), appended to
+// `row`. `ignore` is i's ignore list with one free slot at its end for the source.
+void addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, const KernelOptions& kernelOptions,
+                    size_t i, size_t source, std::vector<uint32_t>& ignore, Row& row) {
+  const Vec3 p = mesh.positions[i], nrm = recv.normal[i], a = recv.approach[i];
+  const Patch& patch = mesh.patches[source];
+  if (recv.isOwnTwin(i, uint32_t(source))) return;  // a side never sees its own twin
+  const auto q = corners(mesh, patch);
+  // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
+  bool above = false;
+  for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
+  if (!above || dot(patch.normal, p - q[0]) < -occlusion.epsilon()) return;
+  const auto k = vertexQuadKernel(p, nrm, a, q, kernelOptions);
+  if (k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0) return;
+  // A crease contribution sits at the receiver itself: nothing can come between.
+  const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
+  ignore.back() = uint32_t(source);
+  const Sight sight{occlusion, mesh, recv.origin[i], ignore, recv.own(i)};
+  const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(sight, nrm, q, patch.normal);
+  for (int j = 0; j < 4; ++j) {
+    // A triangle's collapsed corner (v3 == v2) adds its shape function to v2.
+    if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);
+  }
+}
+
 // Bilinear method: row i holds K_ij for every vertex j, K_ij = Σ over patches of the kernel from
 // vertex i to the patch's shape function at j, times visibility.
 Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
@@ -408,34 +459,265 @@ Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
   kernelOptions.relativeTolerance = options.kernelTolerance;
   const Bounds bounds = sceneBounds(mesh);
   t.build = [&mesh, &occlusion, recv, kernelOptions, closure, bounds](size_t i, Row& row) {
-    const Vec3 p = mesh.positions[i], nrm = recv->normal[i], a = recv->approach[i];
-    if (facesNothing(bounds, p, nrm, occlusion.epsilon())) return;
+    if (facesNothing(bounds, mesh.positions[i], recv->normal[i], occlusion.epsilon())) return;
     std::vector<uint32_t> ignore(recv->ignored(i).begin(), recv->ignored(i).end());
-    ignore.push_back(0);  // the source patch, set below
-    for (size_t source = 0; source < mesh.patches.size(); ++source) {
-      const Patch& patch = mesh.patches[source];
-      if (recv->isOwnTwin(i, uint32_t(source))) continue;  // a side never sees its own twin
-      if (closure->separates(i, source)) continue;
-      const auto q = corners(mesh, patch);
-      // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
-      bool above = false;
-      for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
-      if (!above || dot(patch.normal, p - q[0]) < -occlusion.epsilon()) continue;
-      const auto k = vertexQuadKernel(p, nrm, a, q, kernelOptions);
-      if (k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0) continue;
-      // A crease contribution sits at the receiver itself: nothing can come between.
-      const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
-      ignore.back() = uint32_t(source);
-      const Sight sight{occlusion, mesh, recv->origin[i], ignore, recv->own(i)};
-      const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(sight, nrm, q, patch.normal);
-      for (int j = 0; j < 4; ++j) {
-        // A triangle's collapsed corner (v3 == v2) adds its shape function to v2.
-        if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);
-      }
-    }
+    ignore.push_back(0);  // the source patch, set per source
+    for (size_t source = 0; source < mesh.patches.size(); ++source)
+      if (!closure->separates(i, source)) addPatchKernel(mesh, occlusion, *recv, kernelOptions, i, source, ignore, row);
     canonicalize(row);
   };
   return t;
+}
+
+// The source clusters' vector moments of L, M_node[c] = Σ_patches n_p Σ_j A_pj L_j[c] (c: the
+// color channel), bottom-up in a fixed order so the sums have the same bits for any thread count.
+std::vector<std::array<Vec3, 3>> clusterMoments(const Hierarchical& h, const PatchMesh& mesh, const std::vector<Vec3>& L) {
+  const ClusterTree& tree = h.source;
+  std::vector<std::array<Vec3, 3>> moment(tree.nodes.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tree.nodes.size(), 1024), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const TreeNode& node = tree.nodes[k];
+      if (node.count != 1) continue;
+      const uint32_t p = tree.order[node.first];
+      const Patch& patch = mesh.patches[p];
+      Vec3 s{};
+      for (int j = 0; j < 4; ++j) s += L[patch.v[j]] * h.shapeAreas[p][j];
+      moment[k] = {patch.normal * s.x, patch.normal * s.y, patch.normal * s.z};
+    }
+  });
+  for (size_t k = tree.nodes.size(); k-- > 0;) {  // children come after their parent
+    const TreeNode& node = tree.nodes[k];
+    if (node.count == 1) continue;
+    for (int c = 0; c < 3; ++c) moment[k][c] = moment[node.child[0]][c] + moment[node.child[1]][c];
+  }
+  return moment;
+}
+
+// Φ at a group's centroid and its gradient J = ∂Φ/∂p, per color channel.
+struct LocalField {
+  std::array<Vec3, 3> phi{};
+  std::array<std::array<double, 9>, 3> jacobian{};  // row-major
+};
+
+// What each vertex gathers through the links, n_i · Φ(p_i) per channel: each group's field from its
+// links (in parallel), then pushed down the receiver tree (parent before child), re-centred on
+// each child's centroid: Φ_child += Φ_G + J_G (c_child − c_G), J_child += J_G.
+std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<std::array<Vec3, 3>>& moment) {
+  const ClusterTree& R = h.receiver;
+  std::vector<LocalField> field(R.nodes.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, R.nodes.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k)
+      for (size_t e = h.linkStart[k]; e < h.linkStart[k + 1]; ++e) {
+        const Vec3& w = h.links[e].w;
+        const double d2 = dot(w, w), s = 1 / (kPi * d2 * d2);
+        for (int c = 0; c < 3; ++c) {
+          const Vec3& m = moment[h.links[e].source][c];
+          const double wm = dot(w, m);
+          field[k].phi[c] += w * (-wm * s);
+          // ∂Φ/∂p = (1/π) [(w·M) I + w Mᵀ − 4 (w·M) w wᵀ / |w|²] / |w|⁴
+          auto& J = field[k].jacobian[c];
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+              J[3 * a + b] += s * ((a == b ? wm : 0) + w[a] * m[b] - 4 * wm * w[a] * w[b] / d2);
+        }
+      }
+  });
+  for (size_t k = 0; k < R.nodes.size(); ++k) {
+    const TreeNode& node = R.nodes[k];
+    if (node.count == 1) continue;
+    for (int child : node.child) {
+      const Vec3 delta = R.nodes[child].centroid - node.centroid;
+      for (int c = 0; c < 3; ++c) {
+        const auto& J = field[k].jacobian[c];
+        field[child].phi[c] += field[k].phi[c] + Vec3{J[0] * delta.x + J[1] * delta.y + J[2] * delta.z,
+                                                      J[3] * delta.x + J[4] * delta.y + J[5] * delta.z,
+                                                      J[6] * delta.x + J[7] * delta.y + J[8] * delta.z};
+        for (int a = 0; a < 9; ++a) field[child].jacobian[c][a] += J[a];
+      }
+    }
+  }
+  std::vector<Vec3> far(h.leafOf.size());
+  for (size_t v = 0; v < far.size(); ++v) {
+    const auto& phi = field[h.leafOf[v]].phi;  // a leaf's centroid is its vertex
+    far[v] = {dot(h.normal[v], phi[0]), dot(h.normal[v], phi[1]), dot(h.normal[v], phi[2])};
+  }
+  return far;
+}
+
+// Rays per receiver and cluster link, to patch centres spread over the cluster. All through: the
+// link is made; none: the cluster is hidden from the group (small pairs only); some: a group is opened.
+constexpr uint32_t kClusterRays = 4;
+// No link spans less than twice the two groups' radii, whatever its error estimate says.
+constexpr double kMaxRatio = 0.5;
+// A (group, cluster) pair with at most this many (vertex, patch) pairs whose rays are all blocked
+// is taken as hidden; a larger one is opened.
+constexpr uint64_t kHiddenPairs = 16;
+// Receiver subtrees of at most this many vertices are walked as one parallel task.
+constexpr uint32_t kTaskVertices = 256;
+
+// Builds the hierarchical transport: for every receiver subtree of at most kTaskVertices vertices
+// (in parallel), a walk of (receiver group, source cluster) pairs from (the subtree, the source
+// root). A pair becomes a link when the cluster is on the group's side of every closed surface,
+// wholly above every receiver's horizon, facing every receiver with every patch, far (r/d < 0.5
+// and the error estimate 3 (r/d)² F below `accuracy`, r the two radii together and F ≈ A/(π d²))
+// and seen whole by kClusterRays rays; a hidden cluster is dropped; anything else splits the
+// larger group, down to (vertex, patch), which gets the exact kernel (addPatchKernel).
+Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
+                                   const Receivers& recv, Closure& closure) {
+  Hierarchical h;
+  const size_t nv = mesh.positions.size(), np = mesh.patches.size();
+  std::vector<TreeItem> items(np);
+  h.shapeAreas.resize(np);
+  for (size_t p = 0; p < np; ++p) {
+    const Patch& patch = mesh.patches[p];
+    items[p] = {corners(mesh, patch), 4, patch.normal, patch.area, bool(closure.patches[p])};
+    h.shapeAreas[p] = shapeFunctionAreas(items[p].points);
+  }
+  h.source = buildClusterTree(items);
+  const Bounds bounds = sceneBounds(mesh);
+  h.rowScale.assign(nv, 1.0);
+  h.normal = recv.normal;
+  items.assign(nv, {});
+  for (size_t v = 0; v < nv; ++v) {
+    items[v] = {{mesh.positions[v]}, 1, recv.normal[v], 1.0, bool(closure.rows[v])};
+    if (closure.dark[v] || facesNothing(bounds, mesh.positions[v], recv.normal[v], occlusion.epsilon())) h.rowScale[v] = 0;
+  }
+  h.receiver = buildClusterTree(items);
+  h.leafOf.resize(nv);
+  for (size_t k = 0; k < h.receiver.nodes.size(); ++k)
+    if (h.receiver.nodes[k].count == 1) h.leafOf[h.receiver.order[h.receiver.nodes[k].first]] = uint32_t(k);
+
+  // The tasks: receiver subtrees of at most kTaskVertices vertices, in tree order.
+  std::vector<uint32_t> tasks;
+  for (std::vector<uint32_t> stack{0}; !stack.empty();) {
+    const uint32_t k = stack.back();
+    stack.pop_back();
+    const TreeNode& node = h.receiver.nodes[k];
+    if (node.count <= kTaskVertices) tasks.push_back(k);
+    else for (int c = 1; c >= 0; --c) stack.push_back(uint32_t(node.child[c]));
+  }
+  KernelOptions kernelOptions;
+  kernelOptions.relativeTolerance = options.kernelTolerance;
+  std::vector<Row> near(nv);
+  std::vector<std::vector<ClusterLink>> links(h.receiver.nodes.size());
+  std::atomic<size_t> rays{0};
+  Ticker ticker(options.progress, nv, 0.0, 0.8);
+  const double lift = occlusion.epsilon() * 10;
+  const ClusterTree &R = h.receiver, &S = h.source;
+
+
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tasks.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+    std::vector<uint32_t> ignore;
+    size_t shot = 0;
+    for (size_t task = range.begin(); task != range.end(); ++task) {
+      std::vector<std::pair<uint32_t, uint32_t>> stack{{tasks[task], 0}};
+      while (!stack.empty()) {
+        const auto [gi, ci] = stack.back();
+        stack.pop_back();
+        const TreeNode &g = R.nodes[gi], &c = S.nodes[ci];
+        // Light never crosses a closed surface (Closure::separates), group by group.
+        if ((g.enclosed == g.count && c.enclosed == 0) || (g.enclosed == 0 && c.enclosed == c.count)) continue;
+        if (g.count == 1 && c.count == 1) {
+          const uint32_t v = R.order[g.first];
+          if (h.rowScale[v] == 0) continue;
+          ignore.assign(recv.ignored(v).begin(), recv.ignored(v).end());
+          ignore.push_back(0);
+          addPatchKernel(mesh, occlusion, recv, kernelOptions, v, S.order[c.first], ignore, near[v]);
+          continue;
+        }
+        const Vec3 d = c.centroid - g.centroid;
+        const double dist = length(d);
+        const double gSin = std::min(1.0, g.coneSin);
+        // The cluster's box over the group's horizon: the lowest point, less what the group's
+        // extent and the spread of its normals can take away.
+        double low = 0, high = 0, reach = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double a = g.axis[k] * (c.lo[k] - g.centroid[k]), b = g.axis[k] * (c.hi[k] - g.centroid[k]);
+          low += std::min(a, b);
+          high += std::max(a, b);
+          reach += std::max(std::abs(c.lo[k] - g.centroid[k]), std::abs(c.hi[k] - g.centroid[k])) *
+                   std::max(std::abs(c.lo[k] - g.centroid[k]), std::abs(c.hi[k] - g.centroid[k]));
+        }
+        const double slack = g.radius + gSin * (std::sqrt(reach) + g.radius);
+        if (g.coneSin <= 1 && high + slack <= 0) continue;  // below every receiver's horizon
+        const bool mixed = (g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count);
+        const double spread = g.radius + c.radius;
+        const double ratio = dist > 0 ? spread / dist : 1e300;
+        const double linkError = 3 * ratio * ratio * c.area / (kPi * dist * dist);
+        bool split = true;
+        if (!mixed && g.coneSin <= 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < options.accuracy && low - slack >= 0) {
+          const Vec3 u = d / dist;
+          const double alpha = std::asin(c.coneSin), gamma = std::asin(std::min(1.0, ratio));
+          const double beta = std::acos(std::clamp(-dot(c.axis, u), -1.0, 1.0));
+          if (beta - alpha - gamma >= kPi / 2) continue;  // every patch shows the group its back
+          if (alpha + beta + gamma < kPi / 2) {
+            // kClusterRays rays from every receiver of the group, each to a patch of the cluster
+            // (spread over it by a multiplicative hash): fewer, from sample receivers only, let
+            // light through to the floor beside and under a block (measured: 3% errors there).
+            const uint32_t count = g.count * kClusterRays;
+            uint32_t seen = 0;
+            for (uint32_t k = 0; k < count; ++k) {
+              const uint32_t v = R.order[g.first + k / kClusterRays];
+              const uint32_t p = S.order[c.first + uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count)];
+              const Sight sight{occlusion, mesh, recv.origin[v], recv.ignored(v), recv.own(v)};
+              seen += sight.visible(pointOnPatch(corners(mesh, mesh.patches[p]), 0, 0) + mesh.patches[p].normal * lift);
+            }
+            shot += count;
+            // All rays blocked hides a small pair; a large one is opened (a shadow may cover the
+            // samples and still leave most of the pair in view).
+            if (seen == 0 && g.count * uint64_t(c.count) <= kHiddenPairs) continue;
+            if (seen == count) {
+              links[gi].push_back({ci, d});
+              split = false;
+            }
+          }
+        }
+        if (!split) continue;
+        // Open the larger group (a leaf cannot be opened).
+        const bool openReceiver = c.count == 1 || (g.count > 1 && g.radius >= c.radius);
+        for (int k = 1; k >= 0; --k)
+          stack.push_back(openReceiver ? std::pair{uint32_t(g.child[k]), ci} : std::pair{gi, uint32_t(c.child[k])});
+      }
+      ticker.add(R.nodes[tasks[task]].count);
+    }
+    rays += shot;
+  });
+  h.rays = rays.load();
+
+  h.start.assign(1, 0);
+  for (size_t v = 0; v < nv; ++v) {
+    canonicalize(near[v]);
+    for (const auto& [col, val] : near[v]) {
+      h.column.push_back(col);
+      h.value.push_back(val);
+    }
+    h.start.push_back(h.column.size());
+    Row().swap(near[v]);
+  }
+  h.linkStart.assign(1, 0);
+  for (auto& list : links) {
+    h.links.insert(h.links.end(), list.begin(), list.end());
+    h.linkStart.push_back(h.links.size());
+    std::vector<ClusterLink>().swap(list);
+  }
+
+  // Closure (as applyClosure does for exact rows): each row's total, near entries plus the far
+  // share n_i · E_G of L ≡ 1 (whose moments are Σ A n), scaled to 1 where the rules say.
+  std::vector<std::array<Vec3, 3>> ones(S.nodes.size());
+  for (size_t k = 0; k < S.nodes.size(); ++k) ones[k] = {S.nodes[k].areaNormal, S.nodes[k].areaNormal, S.nodes[k].areaNormal};
+  const std::vector<Vec3> farOne = gatherFar(h, ones);
+  for (size_t v = 0; v < nv; ++v) {
+    if (h.rowScale[v] == 0) continue;
+    double sum = farOne[v].x;
+    for (size_t e = h.start[v]; e < h.start[v + 1]; ++e) sum += h.value[e];
+    if (!(sum > (closure.rows[v] ? 0.9 : 1.0)) || sum == 1) continue;
+    h.rowScale[v] = 1 / sum;
+    const double change = std::abs(sum - 1);
+    double before = closure.largest.load();
+    while (change > before && !closure.largest.compare_exchange_weak(before, change)) {
+    }
+  }
+  return h;
 }
 
 // Constant method: row k holds the patch-to-patch factors F_kl (exact near, Gauss far: see
@@ -565,20 +847,12 @@ std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion&
   return sky;
 }
 
-// Jacobi iteration L ← L⁰ + ρ ⊙ (K L): every row independent, so parallel and bit-identical for
-// any thread count. Converges for ρ < 1 (each row of K sums to at most 1).
-void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
-             const RadiosityOptions& options, std::vector<Vec3>& L, std::vector<Vec3>& gathered, Solution& solution) {
-  const size_t n = emission.size();
-  L = emission;
-  gathered.assign(n, Vec3{});
-  double scale = 0;
-  for (const Vec3& e : emission) scale = std::max({scale, std::abs(e.x), std::abs(e.y), std::abs(e.z)});
-  if (scale == 0) return;  // no emitter: black is the answer
-  std::vector<Vec3> next(n);
-  std::vector<double> rowChange(n);
-  for (int it = 1; it <= options.maxIterations; ++it) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, K.stored() ? 256 : 8), [&](const tbb::blocked_range<size_t>& range) {
+// What every unknown gathers from the current L: (K L)_i, into `gathered`.
+using Gather = std::function<void(const std::vector<Vec3>& L, std::vector<Vec3>& gathered)>;
+
+Gather exactGather(const Transport& K) {
+  return [&K](const std::vector<Vec3>& L, std::vector<Vec3>& gathered) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, gathered.size(), K.stored() ? 256 : 8), [&](const tbb::blocked_range<size_t>& range) {
       Row row;
       for (size_t i = range.begin(); i != range.end(); ++i) {
         Vec3 h{};
@@ -590,6 +864,41 @@ void iterate(const Transport& K, const std::vector<Vec3>& emission, const std::v
           for (const auto& [c, v] : row) h += L[c] * v;
         }
         gathered[i] = h;
+      }
+    });
+  };
+}
+
+Gather hierarchicalGather(const Hierarchical& H, const PatchMesh& mesh) {
+  return [&H, &mesh](const std::vector<Vec3>& L, std::vector<Vec3>& gathered) {
+    const std::vector<Vec3> far = gatherFar(H, clusterMoments(H, mesh, L));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, gathered.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        Vec3 h = far[i];
+        for (size_t e = H.start[i]; e < H.start[i + 1]; ++e) h += L[H.column[e]] * H.value[e];
+        gathered[i] = h * H.rowScale[i];
+      }
+    });
+  };
+}
+
+// Jacobi iteration L ← L⁰ + ρ ⊙ (K L): every row independent, so parallel and bit-identical for
+// any thread count. Converges for ρ < 1 (each row of K sums to at most 1).
+void iterate(const Gather& gather, const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
+             const RadiosityOptions& options, std::vector<Vec3>& L, std::vector<Vec3>& gathered, Solution& solution) {
+  const size_t n = emission.size();
+  L = emission;
+  gathered.assign(n, Vec3{});
+  double scale = 0;
+  for (const Vec3& e : emission) scale = std::max({scale, std::abs(e.x), std::abs(e.y), std::abs(e.z)});
+  if (scale == 0) return;  // no emitter: black is the answer
+  std::vector<Vec3> next(n);
+  std::vector<double> rowChange(n);
+  for (int it = 1; it <= options.maxIterations; ++it) {
+    gather(L, gathered);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        const Vec3& h = gathered[i];
         next[i] = emission[i] + Vec3{reflectance[i].x * h.x, reflectance[i].y * h.y, reflectance[i].z * h.z};
         const Vec3 d = next[i] - L[i];
         rowChange[i] = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
@@ -748,13 +1057,24 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
         withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion, *recv, closure->rows); }),
         reflectance, bilinearDirectLight(scene, mesh, occlusion, *recv));
     Transport K;
+    Hierarchical H;
+    Gather gather = exactGather(K);
     if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
-      K = bilinearTransport(mesh, occlusion, options, recv, closure);
-      applyClosure(K, closure);
-      storeIfItFits(K, options, solution.matrixEntries);
-      solution.matrixFree = !K.stored();
+      if (options.transport == TransportMode::kHierarchical) {
+        H = hierarchicalTransport(mesh, occlusion, options, *recv, *closure);
+        gather = hierarchicalGather(H, mesh);
+        solution.matrixEntries = H.value.size();
+        solution.farLinks = H.links.size();
+        solution.clusterRays = H.rays;
+        solution.clusters = H.source.nodes.size() + H.receiver.nodes.size();
+      } else {
+        K = bilinearTransport(mesh, occlusion, options, recv, closure);
+        applyClosure(K, closure);
+        storeIfItFits(K, options, solution.matrixEntries);
+        solution.matrixFree = !K.stored();
+      }
     }
-    iterate(K, source, reflectance, options, solution.vertexRadiance, gathered, solution);
+    iterate(gather, source, reflectance, options, solution.vertexRadiance, gathered, solution);
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
       const auto a = shapeFunctionAreas(corners(mesh, patch));
@@ -790,7 +1110,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       storeIfItFits(F, options, solution.matrixEntries);
       solution.matrixFree = !F.stored();
     }
-    iterate(F, source, reflectance, options, solution.patchRadiance, gathered, solution);
+    iterate(exactGather(F), source, reflectance, options, solution.patchRadiance, gathered, solution);
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       const Vec3& rho = reflectance[p];
       solution.emittedPower += kPi * mesh.patches[p].area * (emission[p].x + emission[p].y + emission[p].z) / 3;

@@ -15,9 +15,16 @@
 namespace radbake {
 
 enum class Method { kBilinear, kConstant };
+// exact: every receiver gathers from every patch (the reference). hierarchical: far clusters of
+// patches are gathered through their vector moment (docs/radiosity.md "Hierarchical transport").
+enum class TransportMode { kExact, kHierarchical };
 
 struct RadiosityOptions {
   Method method = Method::kBilinear;
+  TransportMode transport = TransportMode::kExact;  // hierarchical: the bilinear method only (so far)
+  // Hierarchical transport: the largest estimated error of one far link, as a share of the
+  // receiver's hemisphere (3 (r/d)² F for a cluster of radius r at distance d with factor F).
+  double accuracy = 1e-3;
   double relativeResidual = 1e-6;  // stop when ‖L − (L⁰ + ρKL)‖ ≤ this × ‖L⁰‖
   int maxIterations = 10000;
   double kernelTolerance = 1e-6;   // relative accuracy of each bilinear kernel K_ij
@@ -39,6 +46,9 @@ struct Solution {
   double residual = 0;  // relative, as in RadiosityOptions
   bool interreflection = false;  // false: emission only (L = L⁰)
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
+  size_t farLinks = 0;           // hierarchical: links from receivers to whole source clusters
+  size_t clusterRays = 0;        // hierarchical: visibility rays shot at clusters
+  size_t clusters = 0;           // hierarchical: nodes of the source tree
   bool matrixFree = false;
   // Closure: unknowns inside a closed surface (their total factor is exactly 1), and the largest
   // correction their rows needed, |Σ_j K_ij − 1| before scaling (partial-visibility estimates).

@@ -283,6 +283,12 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   RadiosityOptions radiosityOptions;
   radiosityOptions.relativeResidual = options.tolerance;
   radiosityOptions.method = options.method == "constant" ? Method::kConstant : Method::kBilinear;
+  if (options.transport == "hierarchical") {
+    if (radiosityOptions.method == Method::kConstant)
+      throw Error(ExitCode::kUnsupported, "radbake: --transport hierarchical works with the bilinear method only (so far)");
+    radiosityOptions.transport = TransportMode::kHierarchical;
+  }
+  radiosityOptions.accuracy = options.accuracy;
   if (options.sky) radiosityOptions.sky = parseSky(*options.sky);
   radiosityOptions.progress = [&](double f) { progress.report(f); };
   // The stored transport may take a quarter of the budget; past it the solve runs matrix-free.
@@ -322,7 +328,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
                     {"converged", solution.converged},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
+                    {"transport", options.transport}, {"accuracy", options.accuracy},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree},
+                    {"farLinks", solution.farLinks}, {"clusterRays", solution.clusterRays}, {"clusters", solution.clusters},
                     {"enclosedUnknowns", solution.enclosedUnknowns}, {"closureCorrection", solution.closureCorrection},
                     {"darkUnknowns", solution.darkUnknowns}}},
         {"energy", {{"emittedPower", solution.emittedPower}, {"absorbedPower", solution.absorbedPower},
@@ -419,6 +427,14 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--sky", o.sky, "uniform sky radiance R,G,B for open scenes");
   bakeCmd->add_option("--tolerance", o.tolerance, "relative residual at which the solver stops (default 1e-6)")
       ->check(finiteIn(1e-15, 1.0, "a tolerance from 1e-15 to 1"));
+  bakeCmd->add_option("--transport", o.transport,
+                      "exact (default): every receiver gathers from every patch; hierarchical: far clusters of patches "
+                      "at once (bilinear method; docs/radiosity.md)")
+      ->check(CLI::IsMember({"exact", "hierarchical"}));
+  bakeCmd->add_option("--accuracy", o.accuracy,
+                      "hierarchical transport: largest estimated error of one cluster link, as a share of the hemisphere "
+                      "(default 1e-3)")
+      ->check(finiteIn(1e-9, 0.1, "an accuracy from 1e-9 to 0.1"));
   bakeCmd->add_flag("--strict", o.strict, "fail (exit 5, nothing written) when the solve does not reach the tolerance");
   bakeCmd->add_option("--threads", o.threads, "worker threads (default: all cores)")->check(CLI::Range(1, 1024));
   bakeCmd->add_flag("-q,--quiet", o.quiet, "print errors only");

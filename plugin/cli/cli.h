@@ -32,6 +32,8 @@ struct Options {
   std::string report;
   std::optional<std::string> sky;
   double tolerance = 1e-6;
+  std::string transport = "exact";  // or "hierarchical"
+  double accuracy = 1e-3;           // hierarchical: the largest estimated error of one far link
   bool strict = false;               // a solve that does not converge is an error (exit 5)
   bool allowOutsidePaths = false;    // buffers and images may lie outside the asset's folder
   std::optional<uint64_t> maxMemory;  // bytes; default: the machine's physical memory

@@ -1,0 +1,24 @@
+"""Vertex-by-vertex difference between two bakes of the same scene and tessellation (their
+_RADIANCE attributes): RMS and largest difference relative to the mean radiance of the lit
+(non-emitting) vertices. Usage: compare.py EXACT.glb OTHER.glb"""
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tests", "blender"))
+import glb  # noqa: E402
+
+
+def main():
+    a = glb.radiance(*glb.load(sys.argv[1]))
+    b = glb.radiance(*glb.load(sys.argv[2]))
+    assert len(a) == len(b), "different tessellations"
+    lum_a = [sum(a[i:i + 3]) / 3 for i in range(0, len(a), 3)]
+    lum_b = [sum(b[i:i + 3]) / 3 for i in range(0, len(b), 3)]
+    mean = sum(lum_a) / len(lum_a)
+    diffs = [abs(x - y) for x, y in zip(lum_a, lum_b)]
+    rms = math.sqrt(sum(d * d for d in diffs) / len(diffs))
+    print(f"vertices {len(lum_a)}  mean {mean:.6g}  rms {100 * rms / mean:.3f}%  max {100 * max(diffs) / mean:.3f}%")
+
+
+main()

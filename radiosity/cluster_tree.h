@@ -1,0 +1,53 @@
+// Internal to radiosity/: bounding-volume hierarchies for hierarchical (panel-clustered) transport
+// (docs/radiosity.md "Hierarchical transport"): one over the source patches, one over the
+// receiving vertices.
+//
+// A group of receivers far from a cluster of patches, relative to both sizes, gathers from the
+// whole cluster at once through its vector moment Σ_patches n_p ∫ L N_j dA (face-cluster radiosity's
+// vector irradiance; the panel clustering of collocation methods): one link instead of a kernel
+// per vertex and patch.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/core.h"
+
+namespace radbake {
+
+// What a tree is built over: a patch (its corners, normal, area) or a receiving vertex (one point,
+// its receiving normal, weight 1).
+struct TreeItem {
+  std::array<Vec3, 4> points;
+  int pointCount = 4;
+  Vec3 normal;
+  double area = 1;
+  bool enclosed = false;  // inside a closed room (Closure)
+};
+
+struct TreeNode {
+  Vec3 centroid;          // area-weighted centre of the items
+  double radius = 0;      // bounding sphere about the centroid (every point inside)
+  Vec3 lo, hi;            // bounding box of the points
+  Vec3 axis;              // normal cone: mean normal (unit) ...
+  double coneSin = 0;     // ... and the sine of its half-angle (> 1: wider than a hemisphere)
+  Vec3 areaNormal;        // Σ area · normal: a source cluster's moment of L ≡ 1 (closure sums)
+  double area = 0;
+  uint32_t first = 0, count = 0;  // items order[first, first + count)
+  int32_t child[2] = {-1, -1};    // -1: a leaf (one item)
+  uint32_t enclosed = 0;          // how many of its items are enclosed
+};
+
+struct ClusterTree {
+  std::vector<TreeNode> nodes;  // nodes[0] is the root; children after their parent
+  std::vector<uint32_t> order;  // item indices, each node's range contiguous
+  bool empty() const { return nodes.empty(); }
+};
+
+// Built in a fixed order (items first separated by the dominant axis of their normal, then median
+// splits on the longest axis, ties by index): the same tree, and the same bits downstream, for any
+// thread count.
+ClusterTree buildClusterTree(const std::vector<TreeItem>& items);
+
+}  // namespace radbake
