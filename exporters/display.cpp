@@ -98,6 +98,9 @@ ResolvedView resolve(const DisplayOptions& options) {
     r.config = builtinConfig();
     r.configName = kBuiltinName;
   } else {
+    // Only a regular file: OpenColorIO would block on a FIFO or read a device forever.
+    if (std::string problem = regularFileProblem(options.config); !problem.empty())
+      throw Error(ExitCode::kInvalidInput, options.config + ": " + problem);
     try {
       r.config = OCIO::Config::CreateFromFile(options.config.c_str());
       r.config->validate();

@@ -213,7 +213,7 @@ void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
         << (light.type == PunctualLight::Type::kDirectional ? " lx" : " cd") << "\n";
   }
   if (!scene.hasEmitter()) out << "  no emitter: the bake will be black\n";
-  for (const auto& w : scene.warnings) out << "  warning: " << w << "\n";
+  for (const auto& w : scene.warnings) out << "  warning: " << oneLine(w) << "\n";
 }
 
 nlohmann::json lightmapReport(const LightmapSummary& l) {
@@ -316,7 +316,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   progress.finishBar();
 
   if (!options.quiet)
-    for (const auto& w : scene.warnings) err << "warning: " << w << "\n";
+    for (const auto& w : scene.warnings) err << "warning: " << oneLine(w) << "\n";
   if (!options.report.empty()) {
     nlohmann::json report{
         {"input", options.input}, {"output", options.output}, {"method", options.method},

@@ -385,6 +385,9 @@ def build(root):
     add_texture(d, 0, "tex.png")
     write_gltf(folder("b_fifo_image"), d)
     case("b_fifo_image", "B: a FIFO as an image URI", bake(), 2, ELEM("image 0"), setup=[{"mkfifo": "tex.png"}])
+    write_gltf(folder("b_fifo_ocio_config"), lit_scene())
+    case("b_fifo_ocio_config", "B: a FIFO as --ocio-config", bake("scene.gltf", "--ocio-config", "{case}/config.ocio"), 2,
+         "(?i)config\\.ocio.*regular", setup=[{"mkfifo": "config.ocio"}])
 
     pts = ["%g %g %g" % (i / 3.0, j / 3.0, 0.3 * ((i - 1.5) ** 2 - (j - 1.5) ** 2)) for i in range(4) for j in range(4)]
     write(os.path.join(folder("b_bpt_max_chord_1e-12"), "patch.bpt"), "1\n3 3\n" + "\n".join(pts) + "\n")
@@ -485,6 +488,14 @@ def build(root):
     write_gltf(folder("d_lightmap_missing_folder"), lit_scene())
     case("d_lightmap_missing_folder", "D: --lightmap into a missing folder",
          bake("scene.gltf", "--lightmap", "{out}/missing/lm.exr"), 4, "(?i)missing|lm\\.exr|lightmap|director")
+
+    # A warning is one bounded line too: a material named with 100,000 characters and a newline.
+    d = lit_scene()
+    d.g["materials"][0]["name"] = "m" * 50000 + "\n" + "x" * 50000
+    d.g["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = [1.5, 1.5, 1.5, 1.0]
+    write_gltf(folder("e_long_material_name_warning"), d)
+    case("e_long_material_name_warning", "E: a clamped base color on a material with a 100,000-character name",
+         bake(), 0, "(?i)material 0")
 
     # ---- E. wrong numbers
     for n, factor in (("e_basecolor_1.5", [1.5, 1.5, 1.5, 1.0]), ("e_basecolor_1e300", [1e300, 1e300, 1e300, 1.0]),

@@ -187,6 +187,9 @@ def check(case, code, timed_out, rss_kib, stdout, stderr, case_dir, out_dir, bef
         bad = [l for l in lines if not l.startswith("warning: ")]
         if bad:
             fails.append("stderr line not a warning: %r" % bad[0][:200])
+        long_lines = [l for l in lines if len(l) > len("warning: ") + 400]
+        if long_lines:
+            fails.append("warning longer than 400 characters: %d" % len(long_lines[0]))
         if expect and not any(re.search(expect, l) for l in lines):
             fails.append("no warning matches /%s/ (stderr %r)" % (expect, stderr[:300]))
         for rel in case.get("outputs", []):
