@@ -98,8 +98,9 @@ ResolvedView resolve(const DisplayOptions& options) {
     r.config = builtinConfig();
     r.configName = kBuiltinName;
   } else {
-    // Only a regular file: OpenColorIO would block on a FIFO or read a device forever.
-    if (std::string problem = regularFileProblem(options.config); !problem.empty())
+    // Only a regular file: OpenColorIO would block on a FIFO or read a device forever. (A missing
+    // file is left to OpenColorIO, whose message says so.)
+    if (std::string problem = regularFileProblem(options.config); problem.starts_with("not a regular file"))
       throw Error(ExitCode::kInvalidInput, options.config + ": " + problem);
     try {
       r.config = OCIO::Config::CreateFromFile(options.config.c_str());

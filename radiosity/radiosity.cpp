@@ -562,67 +562,83 @@ constexpr uint32_t kTaskVertices = 256;
 // and the error estimate 3 (r/d)² F below `accuracy`, r the two radii together and F ≈ A/(π d²))
 // and seen whole by kClusterRays rays; a hidden cluster is dropped; anything else splits the
 // larger group, down to (vertex, patch), which gets the exact kernel (addPatchKernel).
-Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
-                                   const Receivers& recv, Closure& closure) {
-  Hierarchical h;
-  const size_t nv = mesh.positions.size(), np = mesh.patches.size();
-  std::vector<TreeItem> items(np);
-  h.shapeAreas.resize(np);
-  for (size_t p = 0; p < np; ++p) {
-    const Patch& patch = mesh.patches[p];
-    items[p] = {corners(mesh, patch), 4, patch.normal, patch.area, bool(closure.patches[p])};
-    h.shapeAreas[p] = shapeFunctionAreas(items[p].points);
-  }
-  h.source = buildClusterTree(items);
-  const Bounds bounds = sceneBounds(mesh);
-  h.rowScale.assign(nv, 1.0);
-  h.normal = recv.normal;
-  items.assign(nv, {});
-  for (size_t v = 0; v < nv; ++v) {
-    items[v] = {{mesh.positions[v]}, 1, recv.normal[v], 1.0, bool(closure.rows[v])};
-    if (closure.dark[v] || facesNothing(bounds, mesh.positions[v], recv.normal[v], occlusion.epsilon())) h.rowScale[v] = 0;
-  }
-  h.receiver = buildClusterTree(items);
-  h.leafOf.resize(nv);
-  for (size_t k = 0; k < h.receiver.nodes.size(); ++k)
-    if (h.receiver.nodes[k].count == 1) h.leafOf[h.receiver.order[h.receiver.nodes[k].first]] = uint32_t(k);
+// The receiver tree and the parallel tasks over it, shared by the sky and transport walks.
+struct ReceiverGroups {
+  ClusterTree tree;
+  std::vector<uint32_t> leafOf;  // vertex → its leaf
+  std::vector<uint32_t> tasks;   // subtrees of at most kTaskVertices vertices, in tree order
+};
 
-  // The tasks: receiver subtrees of at most kTaskVertices vertices, in tree order.
-  std::vector<uint32_t> tasks;
-  for (std::vector<uint32_t> stack{0}; !stack.empty();) {
+ReceiverGroups receiverGroups(const PatchMesh& mesh, const Receivers& recv, const Closure& closure) {
+  ReceiverGroups groups;
+  const size_t nv = mesh.positions.size();
+  std::vector<TreeItem> items(nv);
+  for (size_t v = 0; v < nv; ++v) items[v] = {{mesh.positions[v]}, 1, recv.normal[v], 1.0, bool(closure.rows[v])};
+  groups.tree = buildClusterTree(items);
+  groups.leafOf.resize(nv);
+  for (size_t k = 0; k < groups.tree.nodes.size(); ++k)
+    if (groups.tree.nodes[k].count == 1) groups.leafOf[groups.tree.order[groups.tree.nodes[k].first]] = uint32_t(k);
+  for (std::vector<uint32_t> stack{0}; !stack.empty() && !groups.tree.empty();) {
     const uint32_t k = stack.back();
     stack.pop_back();
-    const TreeNode& node = h.receiver.nodes[k];
-    if (node.count <= kTaskVertices) tasks.push_back(k);
+    const TreeNode& node = groups.tree.nodes[k];
+    if (node.count <= kTaskVertices) groups.tasks.push_back(k);
     else for (int c = 1; c >= 0; --c) stack.push_back(uint32_t(node.child[c]));
   }
-  KernelOptions kernelOptions;
-  kernelOptions.relativeTolerance = options.kernelTolerance;
-  std::vector<Row> near(nv);
-  std::vector<std::vector<ClusterLink>> links(h.receiver.nodes.size());
+  return groups;
+}
+
+// A source tree over `patches` (indices into the mesh; its order holds positions in `patches`).
+ClusterTree patchTree(const PatchMesh& mesh, const std::vector<uint32_t>& patches, const Closure& closure) {
+  std::vector<TreeItem> items(patches.size());
+  for (size_t k = 0; k < patches.size(); ++k) {
+    const Patch& patch = mesh.patches[patches[k]];
+    items[k] = {corners(mesh, patch), 4, patch.normal, patch.area, bool(closure.patches[patches[k]])};
+  }
+  return buildClusterTree(items);
+}
+
+// The walk of (receiver group, source cluster) pairs (docs/radiosity.md "Hierarchical transport").
+// Transport: a link needs every patch facing every receiver, and light never crosses a closed
+// surface. Cover (the sky pass): every patch facing the group or every patch facing away (a
+// surface covers the sky from either side), no closure. `leaf(v, patch)` handles the exact
+// (vertex, patch) pairs; `gathers(v)` says whether vertex v needs anything at all.
+struct WalkSetup {
+  const PatchMesh& mesh;
+  const Occlusion& occlusion;
+  const Receivers& recv;
+  const ReceiverGroups& groups;
+  const ClusterTree& source;
+  const std::vector<uint32_t>& patchOf;  // source item → mesh patch
+  bool cover;
+  double accuracy;
+};
+
+std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::function<bool(uint32_t)>& gathers,
+                                                const std::function<void(uint32_t, uint32_t, std::vector<uint32_t>&)>& leaf,
+                                                Ticker& ticker, size_t& raysShot) {
+  const ClusterTree &R = w.groups.tree, &S = w.source;
+  std::vector<std::vector<ClusterLink>> links(R.nodes.size());
+  if (S.empty()) return links;
   std::atomic<size_t> rays{0};
-  Ticker ticker(options.progress, nv, 0.0, 0.8);
-  const double lift = occlusion.epsilon() * 10;
-  const ClusterTree &R = h.receiver, &S = h.source;
-
-
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, tasks.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+  const double lift = w.occlusion.epsilon() * 10;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, w.groups.tasks.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint32_t> ignore;
     size_t shot = 0;
     for (size_t task = range.begin(); task != range.end(); ++task) {
-      std::vector<std::pair<uint32_t, uint32_t>> stack{{tasks[task], 0}};
+      std::vector<std::pair<uint32_t, uint32_t>> stack{{w.groups.tasks[task], 0}};
       while (!stack.empty()) {
         const auto [gi, ci] = stack.back();
         stack.pop_back();
         const TreeNode &g = R.nodes[gi], &c = S.nodes[ci];
         // Light never crosses a closed surface (Closure::separates), group by group.
-        if ((g.enclosed == g.count && c.enclosed == 0) || (g.enclosed == 0 && c.enclosed == c.count)) continue;
+        if (!w.cover && ((g.enclosed == g.count && c.enclosed == 0) || (g.enclosed == 0 && c.enclosed == c.count))) continue;
         if (g.count == 1 && c.count == 1) {
           const uint32_t v = R.order[g.first];
-          if (h.rowScale[v] == 0) continue;
-          ignore.assign(recv.ignored(v).begin(), recv.ignored(v).end());
+          if (!gathers(v)) continue;
+          ignore.assign(w.recv.ignored(v).begin(), w.recv.ignored(v).end());
           ignore.push_back(0);
-          addPatchKernel(mesh, occlusion, recv, kernelOptions, v, S.order[c.first], ignore, near[v]);
+          leaf(v, w.patchOf[S.order[c.first]], ignore);
           continue;
         }
         const Vec3 d = c.centroid - g.centroid;
@@ -635,22 +651,22 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
           const double a = g.axis[k] * (c.lo[k] - g.centroid[k]), b = g.axis[k] * (c.hi[k] - g.centroid[k]);
           low += std::min(a, b);
           high += std::max(a, b);
-          reach += std::max(std::abs(c.lo[k] - g.centroid[k]), std::abs(c.hi[k] - g.centroid[k])) *
-                   std::max(std::abs(c.lo[k] - g.centroid[k]), std::abs(c.hi[k] - g.centroid[k]));
+          const double far = std::max(std::abs(c.lo[k] - g.centroid[k]), std::abs(c.hi[k] - g.centroid[k]));
+          reach += far * far;
         }
         const double slack = g.radius + gSin * (std::sqrt(reach) + g.radius);
         if (g.coneSin <= 1 && high + slack <= 0) continue;  // below every receiver's horizon
-        const bool mixed = (g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count);
-        const double spread = g.radius + c.radius;
-        const double ratio = dist > 0 ? spread / dist : 1e300;
+        const bool mixed = !w.cover && ((g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count));
+        const double ratio = dist > 0 ? (g.radius + c.radius) / dist : 1e300;
         const double linkError = 3 * ratio * ratio * c.area / (kPi * dist * dist);
         bool split = true;
-        if (!mixed && g.coneSin <= 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < options.accuracy && low - slack >= 0) {
+        if (!mixed && g.coneSin <= 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy && low - slack >= 0) {
           const Vec3 u = d / dist;
           const double alpha = std::asin(c.coneSin), gamma = std::asin(std::min(1.0, ratio));
           const double beta = std::acos(std::clamp(-dot(c.axis, u), -1.0, 1.0));
-          if (beta - alpha - gamma >= kPi / 2) continue;  // every patch shows the group its back
-          if (alpha + beta + gamma < kPi / 2) {
+          const bool away = beta - alpha - gamma >= kPi / 2, toward = alpha + beta + gamma < kPi / 2;
+          if (away && !w.cover) continue;  // every patch shows the group its back
+          if (toward || away) {
             // kClusterRays rays from every receiver of the group, each to a patch of the cluster
             // (spread over it by a multiplicative hash): fewer, from sample receivers only, let
             // light through to the floor beside and under a block (measured: 3% errors there).
@@ -658,9 +674,10 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
             uint32_t seen = 0;
             for (uint32_t k = 0; k < count; ++k) {
               const uint32_t v = R.order[g.first + k / kClusterRays];
-              const uint32_t p = S.order[c.first + uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count)];
-              const Sight sight{occlusion, mesh, recv.origin[v], recv.ignored(v), recv.own(v)};
-              seen += sight.visible(pointOnPatch(corners(mesh, mesh.patches[p]), 0, 0) + mesh.patches[p].normal * lift);
+              const uint32_t p = w.patchOf[S.order[c.first + uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count)]];
+              const Patch& patch = w.mesh.patches[p];
+              const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], w.recv.ignored(v), w.recv.own(v)};
+              seen += sight.visible(pointOnPatch(corners(w.mesh, patch), 0, 0) + patch.normal * (away ? -lift : lift));
             }
             shot += count;
             // All rays blocked hides a small pair; a large one is opened (a shadow may cover the
@@ -678,11 +695,115 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
         for (int k = 1; k >= 0; --k)
           stack.push_back(openReceiver ? std::pair{uint32_t(g.child[k]), ci} : std::pair{gi, uint32_t(c.child[k])});
       }
-      ticker.add(R.nodes[tasks[task]].count);
+      ticker.add(R.nodes[w.groups.tasks[task]].count);
     }
     rays += shot;
   });
-  h.rays = rays.load();
+  raysShot += rays.load();
+  return links;
+}
+
+// The part of vertex i's projected solid angle that patch `source` covers, seen from either side
+// (bilinearSkyFractions' term). `ignore` has a free last slot.
+double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, size_t i, size_t source,
+                std::vector<uint32_t>& ignore) {
+  const Patch& patch = mesh.patches[source];
+  // Covering is geometry, not light: a double-sided surface covers once (its front patch stands
+  // for both sides), and the vertex's own twin covers nothing.
+  if (patch.backSide || recv.isOwnTwin(i, uint32_t(source))) return 0;
+  const Vec3 p = mesh.positions[i], nrm = recv.normal[i];
+  const auto own = recv.own(i);
+  ignore.back() = uint32_t(source);
+  auto q = corners(mesh, patch);
+  Vec3 normal = patch.normal;
+  // The vertex's own patches: on a concave surface they rise in front of it and cover what their
+  // front-side limit says (as in K); on a convex one they fall away behind it and cover nothing
+  // (their limit from behind is ill-conditioned, so it is not taken).
+  const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
+  if (!isOwn && dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
+    // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
+    std::swap(q[1], q[3]);
+    normal = -normal;
+  }
+  const double f = pointPolygonFactorLimit(p, nrm, recv.approach[i], q.data(), 4);
+  if (!(f > 0)) return 0;
+  const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
+  const Sight sight{occlusion, mesh, recv.origin[i], ignore, own};
+  const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(sight, nrm, q, normal);
+  return f * (vis[0] + vis[1] + vis[2] + vis[3]) / 4;
+}
+
+// The sky fractions with the cluster walk (cover mode): near patches exactly (skyCover), far
+// clusters as n · w |w · Σ A n| / (π |w|⁴) per vertex, w from the vertex to the cluster's centroid.
+std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
+                                             const Closure& closure, const ReceiverGroups& groups, double accuracy,
+                                             size_t& rays) {
+  const size_t nv = mesh.positions.size();
+  std::vector<uint32_t> front;  // a double-sided surface covers once
+  for (size_t p = 0; p < mesh.patches.size(); ++p)
+    if (!mesh.patches[p].backSide) front.push_back(uint32_t(p));
+  const ClusterTree tree = patchTree(mesh, front, closure);
+  std::vector<double> covered(nv, 0.0);
+  const std::function<void(double)> none;
+  Ticker ticker(none, nv, 0, 0);
+  const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy};
+  const auto links = walkPairs(
+      setup, [&](uint32_t v) { return !closure.rows[v]; },
+      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) { covered[v] += skyCover(mesh, occlusion, recv, v, patch, ignore); },
+      ticker, rays);
+  // Each vertex adds the links of its groups, from its leaf to the root.
+  std::vector<int32_t> parent(groups.tree.nodes.size(), -1);
+  for (size_t k = 0; k < groups.tree.nodes.size(); ++k)
+    for (int c : groups.tree.nodes[k].child)
+      if (c >= 0) parent[c] = int32_t(k);
+  std::vector<double> sky(nv, 0.0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 256), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t v = range.begin(); v != range.end(); ++v) {
+      if (closure.rows[v]) continue;  // covered whole: no sky
+      double cover = covered[v];
+      for (int32_t k = int32_t(groups.leafOf[v]); k >= 0; k = parent[k])
+        for (const ClusterLink& link : links[k]) {
+          const Vec3 w = tree.nodes[link.source].centroid - mesh.positions[v];
+          const double d2 = dot(w, w);
+          cover += dot(recv.normal[v], w) * std::abs(dot(w, tree.nodes[link.source].areaNormal)) / (kPi * d2 * d2);
+        }
+      sky[v] = std::max(0.0, 1 - cover);
+    }
+  });
+  return sky;
+}
+
+// The hierarchical transport: the walk in transport mode over every patch, exact kernels for the
+// (vertex, patch) pairs (addPatchKernel), links stored per receiver group; then closure.
+Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
+                                   const Receivers& recv, Closure& closure, const ReceiverGroups& groups) {
+  Hierarchical h;
+  const size_t nv = mesh.positions.size(), np = mesh.patches.size();
+  std::vector<uint32_t> all(np);
+  h.shapeAreas.resize(np);
+  for (size_t p = 0; p < np; ++p) {
+    all[p] = uint32_t(p);
+    h.shapeAreas[p] = shapeFunctionAreas(corners(mesh, mesh.patches[p]));
+  }
+  h.source = patchTree(mesh, all, closure);
+  h.receiver = groups.tree;
+  h.leafOf = groups.leafOf;
+  h.normal = recv.normal;
+  const Bounds bounds = sceneBounds(mesh);
+  h.rowScale.assign(nv, 1.0);
+  for (size_t v = 0; v < nv; ++v)
+    if (closure.dark[v] || facesNothing(bounds, mesh.positions[v], recv.normal[v], occlusion.epsilon())) h.rowScale[v] = 0;
+  KernelOptions kernelOptions;
+  kernelOptions.relativeTolerance = options.kernelTolerance;
+  std::vector<Row> near(nv);
+  Ticker ticker(options.progress, nv, 0.0, 0.8);
+  const WalkSetup setup{mesh, occlusion, recv, groups, h.source, all, false, options.accuracy};
+  auto links = walkPairs(
+      setup, [&](uint32_t v) { return h.rowScale[v] != 0; },
+      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
+        addPatchKernel(mesh, occlusion, recv, kernelOptions, v, patch, ignore, near[v]);
+      },
+      ticker, h.rays);
 
   h.start.assign(1, 0);
   for (size_t v = 0; v < nv; ++v) {
@@ -702,7 +823,8 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   }
 
   // Closure (as applyClosure does for exact rows): each row's total, near entries plus the far
-  // share n_i · E_G of L ≡ 1 (whose moments are Σ A n), scaled to 1 where the rules say.
+  // share n_i · Φ of L ≡ 1 (whose moments are Σ A n), scaled to 1 where the rules say.
+  const ClusterTree& S = h.source;
   std::vector<std::array<Vec3, 3>> ones(S.nodes.size());
   for (size_t k = 0; k < S.nodes.size(); ++k) ones[k] = {S.nodes[k].areaNormal, S.nodes[k].areaNormal, S.nodes[k].areaNormal};
   const std::vector<Vec3> farOne = gatherFar(h, ones);
@@ -778,35 +900,10 @@ std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion&
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i) {
       if (enclosed[i]) continue;  // covered whole: no sky
-      const Vec3 p = mesh.positions[i], nrm = recv.normal[i];
       double covered = 0;
       std::vector<uint32_t> ignore(recv.ignored(i).begin(), recv.ignored(i).end());
       ignore.push_back(0);
-      const auto own = recv.own(i);
-      for (size_t source = 0; source < mesh.patches.size(); ++source) {
-        const Patch& patch = mesh.patches[source];
-        // Covering is geometry, not light: a double-sided surface covers once (its front patch
-        // stands for both sides), and the vertex's own twin covers nothing.
-        if (patch.backSide || recv.isOwnTwin(i, uint32_t(source))) continue;
-        ignore.back() = uint32_t(source);
-        auto q = corners(mesh, patch);
-        Vec3 normal = patch.normal;
-        // The vertex's own patches: on a concave surface they rise in front of it and cover what
-        // their front-side limit says (as in K); on a convex one they fall away behind it and
-        // cover nothing (their limit from behind is ill-conditioned, so it is not taken).
-        const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
-        if (!isOwn && dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
-          // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
-          std::swap(q[1], q[3]);
-          normal = -normal;
-        }
-        const double f = pointPolygonFactorLimit(p, nrm, recv.approach[i], q.data(), 4);
-        if (!(f > 0)) continue;
-        const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
-        const Sight sight{occlusion, mesh, recv.origin[i], ignore, own};
-        const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(sight, nrm, q, normal);
-        covered += f * (vis[0] + vis[1] + vis[2] + vis[3]) / 4;
-      }
+      for (size_t source = 0; source < mesh.patches.size(); ++source) covered += skyCover(mesh, occlusion, recv, i, source, ignore);
       sky[i] = std::max(0.0, 1 - covered);
     }
   });
@@ -1053,19 +1150,27 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       reflectance[v] = mesh.vertexReflectance[v];
     }
     const auto recv = std::make_shared<const Receivers>(receivers(mesh, occlusion.epsilon() * 10));
+    const bool hierarchical = options.transport == TransportMode::kHierarchical;
+    ReceiverGroups groups;
+    if (hierarchical) groups = receiverGroups(mesh, *recv, *closure);
     const std::vector<Vec3> source = withDirectLight(
-        withSky(emission, reflectance, options, [&] { return bilinearSkyFractions(mesh, occlusion, *recv, closure->rows); }),
+        withSky(emission, reflectance, options,
+                [&] {
+                  return hierarchical ? hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, options.accuracy,
+                                                                 solution.clusterRays)
+                                      : bilinearSkyFractions(mesh, occlusion, *recv, closure->rows);
+                }),
         reflectance, bilinearDirectLight(scene, mesh, occlusion, *recv));
     Transport K;
     Hierarchical H;
     Gather gather = exactGather(K);
     if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
-      if (options.transport == TransportMode::kHierarchical) {
-        H = hierarchicalTransport(mesh, occlusion, options, *recv, *closure);
+      if (hierarchical) {
+        H = hierarchicalTransport(mesh, occlusion, options, *recv, *closure, groups);
         gather = hierarchicalGather(H, mesh);
         solution.matrixEntries = H.value.size();
         solution.farLinks = H.links.size();
-        solution.clusterRays = H.rays;
+        solution.clusterRays += H.rays;
         solution.clusters = H.source.nodes.size() + H.receiver.nodes.size();
       } else {
         K = bilinearTransport(mesh, occlusion, options, recv, closure);
