@@ -9,6 +9,30 @@
 
 namespace radbake {
 
+namespace {
+
+// An occlusion query that steps over some patches: Embree calls the filter for every hit it finds
+// in any order, and a rejected hit (ignored patch, or a cut-out's clear texel) does not end the
+// ray. An any-hit query with a filter is cheaper than walking the closest hits front to back.
+struct FilterContext {
+  RTCIntersectContext context;  // first: Embree hands back a pointer to it
+  std::span<const uint32_t> ignore;
+  const std::function<bool(uint32_t, double, double)>* passes;
+};
+
+void skipIgnored(const RTCFilterFunctionNArguments* args) {
+  const auto* fc = reinterpret_cast<const FilterContext*>(args->context);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] == 0) continue;
+    const uint32_t prim = RTCHitN_primID(args->hit, args->N, i);
+    const bool ignored = std::find(fc->ignore.begin(), fc->ignore.end(), prim) != fc->ignore.end();
+    if (ignored || (*fc->passes && (*fc->passes)(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i))))
+      args->valid[i] = 0;
+  }
+}
+
+}  // namespace
+
 struct Occlusion::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
@@ -24,7 +48,8 @@ Occlusion::Occlusion(const PatchMesh& mesh) : impl_(std::make_unique<Impl>()) {
   impl_->device = rtcNewDevice(nullptr);
   if (!impl_->device) throw std::runtime_error("Embree device could not be created");
   impl_->scene = rtcNewScene(impl_->device);
-  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);  // watertight-ish: no rays slipping through shared edges
+  // Robust: watertight-ish, no rays slipping through shared edges. Context filter: the ignore lists.
+  rtcSetSceneFlags(impl_->scene, RTCSceneFlags(RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION));
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
 
   Bounds bounds;
@@ -59,36 +84,17 @@ bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32
   const Vec3 d = to - from;
   const double dist = length(d);
   if (dist <= 2 * epsilon_) return true;
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  float tnear = float(epsilon_);
-  const float tfar = float(dist - epsilon_);
-  if (ignore.empty() && !passes_) {
-    RTCRay ray{};
-    ray.org_x = float(from.x); ray.org_y = float(from.y); ray.org_z = float(from.z);
-    ray.dir_x = float(d.x / dist); ray.dir_y = float(d.y / dist); ray.dir_z = float(d.z / dist);
-    ray.tnear = tnear;
-    ray.tfar = tfar;
-    ray.mask = 0xFFFFFFFF;
-    rtcOccluded1(impl_->scene, &context, &ray);
-    return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
-  }
-  // With patches to ignore: walk the hits front to back, stepping over ignored ones.
-  for (int step = 0; step < 64 && tnear < tfar; ++step) {
-    RTCRayHit rh{};
-    rh.ray.org_x = float(from.x); rh.ray.org_y = float(from.y); rh.ray.org_z = float(from.z);
-    rh.ray.dir_x = float(d.x / dist); rh.ray.dir_y = float(d.y / dist); rh.ray.dir_z = float(d.z / dist);
-    rh.ray.tnear = tnear;
-    rh.ray.tfar = tfar;
-    rh.ray.mask = 0xFFFFFFFF;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(impl_->scene, &context, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return true;
-    const bool ignored = std::find(ignore.begin(), ignore.end(), rh.hit.primID) != ignore.end();
-    if (!ignored && !(passes_ && passes_(rh.hit.primID, rh.hit.u, rh.hit.v))) return false;
-    tnear = rh.ray.tfar + float(epsilon_);
-  }
-  return true;
+  FilterContext fc{{}, ignore, &passes_};
+  rtcInitIntersectContext(&fc.context);
+  if (!ignore.empty() || passes_) fc.context.filter = skipIgnored;
+  RTCRay ray{};
+  ray.org_x = float(from.x); ray.org_y = float(from.y); ray.org_z = float(from.z);
+  ray.dir_x = float(d.x / dist); ray.dir_y = float(d.y / dist); ray.dir_z = float(d.z / dist);
+  ray.tnear = float(epsilon_);
+  ray.tfar = float(dist - epsilon_);
+  ray.mask = 0xFFFFFFFF;
+  rtcOccluded1(impl_->scene, &fc.context, &ray);
+  return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
 }
 
 }  // namespace radbake
