@@ -83,6 +83,8 @@ struct ClusterLink {
   Vec3 w;           // from the group's centroid to the cluster's
 };
 
+constexpr uint32_t kNoLeaf = UINT32_MAX;  // a vertex that gathers nothing is in no group
+
 struct Hierarchical {
   ClusterTree source, receiver;                     // over patches, over vertices
   std::vector<std::array<double, 4>> shapeAreas;    // per patch, A_j = ∫ N_j dA (the moments)
@@ -538,6 +540,7 @@ std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<std::array<
   }
   std::vector<Vec3> far(h.leafOf.size());
   for (size_t v = 0; v < far.size(); ++v) {
+    if (h.leafOf[v] == kNoLeaf) continue;
     const auto& phi = field[h.leafOf[v]].phi;  // a leaf's centroid is its vertex
     far[v] = {dot(h.normal[v], phi[0]), dot(h.normal[v], phi[1]), dot(h.normal[v], phi[2])};
   }
@@ -573,13 +576,30 @@ struct ReceiverGroups {
   std::vector<uint32_t> tasks;   // subtrees of at most kTaskVertices vertices, in tree order
 };
 
-ReceiverGroups receiverGroups(const PatchMesh& mesh, const Receivers& recv, const Closure& closure) {
+// Whether vertex v gathers anything: not in a dark room, and something of the scene in front of it
+// (the outside of a room's walls faces nothing). The others stay out of the receiver tree.
+std::vector<bool> gatheringVertices(const PatchMesh& mesh, const Receivers& recv, const Closure& closure, double epsilon) {
+  const Bounds bounds = sceneBounds(mesh);
+  std::vector<bool> gathers(mesh.positions.size());
+  for (size_t v = 0; v < gathers.size(); ++v)
+    gathers[v] = !closure.dark[v] && !facesNothing(bounds, mesh.positions[v], recv.normal[v], epsilon);
+  return gathers;
+}
+
+ReceiverGroups receiverGroups(const PatchMesh& mesh, const Receivers& recv, const Closure& closure,
+                              const std::vector<bool>& gathers) {
   ReceiverGroups groups;
   const size_t nv = mesh.positions.size();
-  std::vector<TreeItem> items(nv);
-  for (size_t v = 0; v < nv; ++v) items[v] = {{mesh.positions[v]}, 1, recv.normal[v], 1.0, bool(closure.rows[v])};
+  std::vector<TreeItem> items;
+  std::vector<uint32_t> vertexOf;
+  for (size_t v = 0; v < nv; ++v)
+    if (gathers[v]) {
+      items.push_back({{mesh.positions[v]}, 1, recv.normal[v], 1.0, bool(closure.rows[v])});
+      vertexOf.push_back(uint32_t(v));
+    }
   groups.tree = buildClusterTree(items);
-  groups.leafOf.resize(nv);
+  for (uint32_t& item : groups.tree.order) item = vertexOf[item];  // the tree's order holds vertices
+  groups.leafOf.assign(nv, kNoLeaf);
   for (size_t k = 0; k < groups.tree.nodes.size(); ++k)
     if (groups.tree.nodes[k].count == 1) groups.leafOf[groups.tree.order[groups.tree.nodes[k].first]] = uint32_t(k);
   for (std::vector<uint32_t> stack{0}; !stack.empty() && !groups.tree.empty();) {
@@ -679,18 +699,28 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             const double factor = c.area / (kPi * dist * dist);
             const uint32_t perReceiver = std::clamp<uint32_t>(uint32_t(std::ceil(factor / kFactorPerRay)), 1, kClusterRays);
             const uint32_t count = g.count * perReceiver;
-            uint32_t seen = 0;
-            for (uint32_t k = 0; k < count; ++k) {
+            auto ray = [&](uint32_t k) {  // receiver k / perReceiver to a hashed patch
               const uint32_t v = R.order[g.first + k / perReceiver];
               const uint32_t p = w.patchOf[S.order[c.first + uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count)]];
               const Patch& patch = w.mesh.patches[p];
               const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], w.recv.ignored(v), w.recv.own(v)};
-              seen += sight.visible(pointOnPatch(corners(w.mesh, patch), 0, 0) + patch.normal * (away ? -lift : lift));
-            }
-            shot += count;
+              return sight.visible(pointOnPatch(corners(w.mesh, patch), 0, 0) + patch.normal * (away ? -lift : lift));
+            };
+            // A few rays spread over the pair first: most pairs that will be opened show it here,
+            // before a ray from every receiver is spent on them.
+            const uint32_t probes = std::min(count, kClusterRays);
+            uint32_t seen = 0;
+            for (uint32_t k = 0; k < probes; ++k) seen += ray(uint32_t((uint64_t(2 * k + 1) * count) / (2 * probes)));
+            shot += probes;
+            const bool small = g.count * uint64_t(c.count) <= kHiddenPairs;
+            if (count > probes && (seen == probes || (seen == 0 && small))) {  // a link, or hidden: every ray says
+              seen = 0;
+              for (uint32_t k = 0; k < count; ++k) seen += ray(k);
+              shot += count;
+            }  // else: `seen` < probes ≤ count, the pair is hidden (none) or opened (some)
             // All rays blocked hides a small pair; a large one is opened (a shadow may cover the
             // samples and still leave most of the pair in view).
-            if (seen == 0 && g.count * uint64_t(c.count) <= kHiddenPairs) continue;
+            if (seen == 0 && small) continue;
             if (seen == count) {
               links[gi].push_back({ci, d});
               split = false;
@@ -768,6 +798,10 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 256), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t v = range.begin(); v != range.end(); ++v) {
       if (closure.rows[v]) continue;  // covered whole: no sky
+      if (groups.leafOf[v] == kNoLeaf) {  // nothing in front of it (a dark vertex is enclosed)
+        sky[v] = 1;
+        continue;
+      }
       double cover = covered[v];
       for (int32_t k = int32_t(groups.leafOf[v]); k >= 0; k = parent[k])
         for (const ClusterLink& link : links[k]) {
@@ -797,10 +831,9 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   h.receiver = groups.tree;
   h.leafOf = groups.leafOf;
   h.normal = recv.normal;
-  const Bounds bounds = sceneBounds(mesh);
   h.rowScale.assign(nv, 1.0);
   for (size_t v = 0; v < nv; ++v)
-    if (closure.dark[v] || facesNothing(bounds, mesh.positions[v], recv.normal[v], occlusion.epsilon())) h.rowScale[v] = 0;
+    if (groups.leafOf[v] == kNoLeaf) h.rowScale[v] = 0;  // gathers nothing
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = options.kernelTolerance;
   std::vector<Row> near(nv);
@@ -1160,7 +1193,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     const auto recv = std::make_shared<const Receivers>(receivers(mesh, occlusion.epsilon() * 10));
     const bool hierarchical = options.transport == TransportMode::kHierarchical;
     ReceiverGroups groups;
-    if (hierarchical) groups = receiverGroups(mesh, *recv, *closure);
+    if (hierarchical) groups = receiverGroups(mesh, *recv, *closure, gatheringVertices(mesh, *recv, *closure, occlusion.epsilon()));
     const std::vector<Vec3> source = withDirectLight(
         withSky(emission, reflectance, options,
                 [&] {

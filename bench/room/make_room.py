@@ -1,0 +1,69 @@
+"""The room of issue 16, made in Blender the way a user makes one and exported by Blender's glTF
+exporter at its defaults: six walls (a cube with its normals flipped), an emissive ceiling panel,
+two Suzannes with a Subdivision Surface modifier and two UV spheres standing on the floor, Blender's
+default (double-sided) materials. At LEVEL 1 and 64x32 spheres it has the issue's 8,039 faces
+(15,822 triangles); higher levels make it larger for scaling runs.
+
+    blender -b --factory-startup --python-exit-code 1 --python make_room.py -- OUT.glb [LEVEL [SEGMENTS]]
+"""
+import sys
+
+import bpy
+
+args = sys.argv[sys.argv.index("--") + 1:]
+out = args[0]
+level = int(args[1]) if len(args) > 1 else 1
+segments = int(args[2]) if len(args) > 2 else 64
+bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def material(name, color, emission=0.0):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    bsdf = m.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (*color, 1)
+    if emission:
+        bsdf.inputs["Emission"].default_value = (1, 1, 1, 1)
+        bsdf.inputs["Emission Strength"].default_value = emission
+    return m
+
+
+def assign(obj, mat):
+    obj.data.materials.clear()
+    obj.data.materials.append(mat)
+
+
+# The room: a 6 m x 3 m x 4 m box seen from inside.
+bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 0, 1.5))
+room = bpy.context.object
+room.scale = (6, 4, 3)
+bpy.ops.object.transform_apply(scale=True)
+bpy.ops.object.mode_set(mode="EDIT")
+bpy.ops.mesh.select_all(action="SELECT")
+bpy.ops.mesh.flip_normals()
+bpy.ops.object.mode_set(mode="OBJECT")
+assign(room, material("walls", (0.7, 0.7, 0.7)))
+
+# The ceiling light: a panel just below the ceiling, facing down.
+bpy.ops.mesh.primitive_plane_add(size=1, location=(0, 0, 2.98))
+panel = bpy.context.object
+panel.scale = (1.2, 0.8, 1)
+panel.rotation_euler = (3.14159265, 0, 0)
+bpy.ops.object.transform_apply(scale=True, rotation=True)
+assign(panel, material("light", (0.8, 0.8, 0.8), emission=10.0))
+
+# Two Suzannes (Subdivision Surface, applied) and two UV spheres on the floor.
+for i, x in enumerate((-1.5, 1.5)):
+    bpy.ops.mesh.primitive_monkey_add(size=1, location=(x, -0.5, 0.5))
+    monkey = bpy.context.object
+    mod = monkey.modifiers.new("subdivision", "SUBSURF")
+    mod.levels = level
+    mod.render_levels = level
+    bpy.ops.object.modifier_apply(modifier=mod.name)
+    assign(monkey, material("suzanne %d" % i, (0.8, 0.3 + 0.4 * i, 0.2)))
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=segments // 2, radius=0.5, location=(x, 1.0, 0.5))
+    assign(bpy.context.object, material("sphere %d" % i, (0.2, 0.4, 0.8)))
+
+bpy.ops.export_scene.gltf(filepath=out)
+faces = sum(len(o.data.polygons) for o in bpy.data.objects if o.type == "MESH")
+print("room: %d faces" % faces)
