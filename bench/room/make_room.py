@@ -6,26 +6,19 @@ default (double-sided) materials. At LEVEL 1 and 64x32 spheres it has the issue'
 
     blender -b --factory-startup --python-exit-code 1 --python make_room.py -- OUT.glb [LEVEL [SEGMENTS]]
 """
+import os
 import sys
 
 import bpy
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests", "blender"))
+from materials import material  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 out = args[0]
 level = int(args[1]) if len(args) > 1 else 1
 segments = int(args[2]) if len(args) > 2 else 64
 bpy.ops.wm.read_factory_settings(use_empty=True)
-
-
-def material(name, color, emission=0.0):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    bsdf = m.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*color, 1)
-    if emission:
-        bsdf.inputs["Emission"].default_value = (1, 1, 1, 1)
-        bsdf.inputs["Emission Strength"].default_value = emission
-    return m
 
 
 def assign(obj, mat):

@@ -10,23 +10,16 @@ its defaults plus "Punctual Lights" ticked:
     blender -b --factory-startup --python-exit-code 1 --python make_scene.py -- OUT.glb
 """
 import math
+import os
 import sys
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from materials import material  # noqa: E402
+
 out = sys.argv[sys.argv.index("--") + 1]
 bpy.ops.wm.read_factory_settings(use_empty=True)
-
-
-def material(name, color, emission=0.0):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    bsdf = m.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*color, 1)
-    if emission:
-        bsdf.inputs["Emission"].default_value = (1, 1, 1, 1)
-        bsdf.inputs["Emission Strength"].default_value = emission
-    return m
 
 
 # The room: 6 × 6 × 3, normals inward.
