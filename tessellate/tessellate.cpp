@@ -596,15 +596,21 @@ double chordError(const BezierPatch& patch, int n) {
 }
 
 // One uniform rate for all patches of the surface, so shared edges get the same points.
-int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions& options) {
+// Measuring a rate costs about as much as the patches it makes, so each rate is checked against
+// the budget before it is measured: a hostile .bpt cannot make the search itself run long.
+int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions& options, const std::string& file) {
   Bounds bounds;
   for (const BezierPatch& p : patches)
     for (const Vec3& c : p.control) bounds.add(c);
   const double chord = options.maxChord > 0 ? options.maxChord : 1e-3 * bounds.diagonal();
   constexpr int kMaxRate = kMaxCurvedRate;
   int rate = std::max(1, options.subdivide);
+  auto raise = [&](int next) {
+    checkPatchBudget(double(patches.size()) * next * next, options, file, "the Bezier surface");
+    rate = next;
+  };
   for (const BezierPatch& p : patches) {
-    while (rate < kMaxRate && chordError(p, rate) > chord) rate = std::min(kMaxRate, rate * 2);
+    while (rate < kMaxRate && chordError(p, rate) > chord) raise(std::min(kMaxRate, rate * 2));
     if (options.maxChord > 0 && rate == kMaxRate)
       if (const double reached = chordError(p, rate); reached > chord)
         chordUnreachable(options, reached, "Bezier patch " + std::to_string(&p - patches.data()));
@@ -619,7 +625,7 @@ int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions&
                                                evaluate(p, double(l) / rate, double(k) / rate).position));
           }
         if (longest <= options.maxEdgeLength) break;
-        ++rate;
+        raise(rate + 1);
       }
   }
   return rate;
@@ -627,7 +633,7 @@ int bezierRate(const std::vector<BezierPatch>& patches, const TessellateOptions&
 
 void tessellateBezier(const Scene& scene, const TessellateOptions& options, Welder& welder, PatchMesh& mesh) {
   if (scene.bezierPatches.empty()) return;
-  const int n = bezierRate(scene.bezierPatches, options);
+  const int n = bezierRate(scene.bezierPatches, options, fileName(scene));
   checkPatchBudget(double(scene.bezierPatches.size()) * n * n + double(mesh.patches.size()), options, fileName(scene),
                    "the Bezier surface");
   mesh.curvedRate = n;
