@@ -116,6 +116,15 @@ struct Closure {
   // surface at a shared corner (a saddle of a torus, seen by estimated visibility) from bringing in
   // the light of its outside.
   bool separates(size_t row, size_t patch) const { return rows[row] != patches[patch]; }
+  // Whether a row gathering `sum` in all is scaled to 1 (the rules above); records the correction.
+  bool scales(size_t row, double sum) {
+    if (!(sum > (rows[row] ? 0.9 : 1.0)) || sum == 1) return false;
+    const double change = std::abs(sum - 1);
+    double seen = largest.load();
+    while (change > seen && !largest.compare_exchange_weak(seen, change)) {
+    }
+    return true;
+  }
 };
 
 // The enclosed patches, and the enclosed unknowns: patches (constant) or their vertices (bilinear).
@@ -160,12 +169,8 @@ void applyClosure(Transport& t, std::shared_ptr<Closure> closure) {
     inner(i, row);
     double sum = 0;
     for (const auto& entry : row) sum += entry.second;
-    if (!(sum > (closure->rows[i] ? 0.9 : 1.0)) || sum == 1) return;
-    for (auto& entry : row) entry.second /= sum;
-    const double change = std::abs(sum - 1);
-    double seen = closure->largest.load();
-    while (change > seen && !closure->largest.compare_exchange_weak(seen, change)) {
-    }
+    if (closure->scales(i, sum))
+      for (auto& entry : row) entry.second /= sum;
   };
 }
 
@@ -877,12 +882,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
     if (h.rowScale[v] == 0) continue;
     double sum = farOne[v].x;
     for (size_t e = h.start[v]; e < h.start[v + 1]; ++e) sum += h.value[e];
-    if (!(sum > (closure.rows[v] ? 0.9 : 1.0)) || sum == 1) continue;
-    h.rowScale[v] = 1 / sum;
-    const double change = std::abs(sum - 1);
-    double before = closure.largest.load();
-    while (change > before && !closure.largest.compare_exchange_weak(before, change)) {
-    }
+    if (closure.scales(v, sum)) h.rowScale[v] = 1 / sum;
   }
   return h;
 }
