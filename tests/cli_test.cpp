@@ -44,10 +44,32 @@ RunResult radbake(const std::vector<std::string>& args) {
   return {code, out.str(), err.str()};
 }
 
+// One fresh folder per test process, removed when the process ends.
+// A name made from the pid alone was reused by a later process after a crash or kill had left it
+// behind, and the tests that check "nothing left behind" then found a stranger's files.
+struct ProcessTempDir {
+  fs::path path;
+  ProcessTempDir() {
+    std::string pattern = (fs::temp_directory_path() / "radbake_cli_test_XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed for " + pattern);
+    path = pattern;
+  }
+  ~ProcessTempDir() {
+    std::error_code ignored;
+    fs::remove_all(path, ignored);
+  }
+};
+
+// A subfolder per test, so that running the whole binary at once keeps the tests apart too.
 fs::path tempDir() {
-  fs::path dir = fs::temp_directory_path() / ("radbake_cli_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  static const ProcessTempDir dir;
+  const testing::TestInfo* test = testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = test == nullptr ? "none" : std::string(test->test_suite_name()) + "." + test->name();
+  for (char& c : name)
+    if (c == '/') c = '_';
+  const fs::path folder = dir.path / name;
+  fs::create_directories(folder);
+  return folder;
 }
 
 bool loadModel(const fs::path& path, tinygltf::Model* model) {
