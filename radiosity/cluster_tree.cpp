@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 namespace radbake {
 
@@ -60,7 +61,12 @@ ClusterTree buildClusterTree(const std::vector<TreeItem>& items) {
       const double c = dot(item.normal, node.axis);
       coneSin = std::max(coneSin, c >= 0 ? std::sqrt(std::max(0.0, 1 - c * c)) : 2.0);
     }
+    double thickness = 0;
+    for (auto it = begin; it != end; ++it)
+      for (int k = 0; k < items[*it].pointCount; ++k)
+        thickness = std::max(thickness, std::abs(dot(node.axis, items[*it].points[k] - node.centroid)));
     node.radius = radius;
+    node.thickness = thickness;
     node.lo = corners.lo;
     node.hi = corners.hi;
     node.coneSin = coneSin;
@@ -105,6 +111,30 @@ ClusterTree buildClusterTree(const std::vector<TreeItem>& items) {
     tree.nodes[index] = node;
   }
   return tree;
+}
+
+Heights heightsOver(const TreeNode& node, const TreeNode& other) {
+  const Vec3 &lo = other.lo, &hi = other.hi;
+  double low = 0, high = 0, reach = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double a = node.axis[k] * (lo[k] - node.centroid[k]), b = node.axis[k] * (hi[k] - node.centroid[k]);
+    low += std::min(a, b);
+    high += std::max(a, b);
+    const double far = std::max(std::abs(lo[k] - node.centroid[k]), std::abs(hi[k] - node.centroid[k]));
+    reach += far * far;
+  }
+  // The other node's slab (its thickness along its own axis, its radius across) bounds it more
+  // tightly when the two are nearly parallel: a box around a tilted face is not flat, the face is.
+  const double cosine = dot(node.axis, other.axis), sine = std::sqrt(std::max(0.0, 1 - cosine * cosine));
+  const double centre = dot(node.axis, other.centroid - node.centroid);
+  const double half = other.thickness * std::abs(cosine) + other.radius * sine;
+  low = std::max(low, centre - half);
+  high = std::min(high, centre + half);
+  const double span = std::sqrt(reach) + node.radius;  // bounds |y − x|
+  const double tan = node.coneSin < 1 ? node.coneSin / std::sqrt(1 - node.coneSin * node.coneSin)
+                                      : std::numeric_limits<double>::infinity();
+  const double slack = node.thickness + (tan > 0 ? tan * span : 0);
+  return {low - slack, high + slack, 1e-9 * span};
 }
 
 }  // namespace radbake

@@ -29,6 +29,7 @@ struct TreeItem {
 struct TreeNode {
   Vec3 centroid;          // area-weighted centre of the items
   double radius = 0;      // bounding sphere about the centroid (every point inside)
+  double thickness = 0;   // largest |axis · (point − centroid)|: 0 for a flat group
   Vec3 lo, hi;            // bounding box of the points
   Vec3 axis;              // normal cone: mean normal (unit) ...
   double coneSin = 0;     // ... and the sine of its half-angle (> 1: wider than a hemisphere)
@@ -49,5 +50,14 @@ struct ClusterTree {
 // splits on the longest axis, ties by index): the same tree, and the same bits downstream, for any
 // thread count.
 ClusterTree buildClusterTree(const std::vector<TreeItem>& items);
+
+// Where another node lies relative to the tangent planes of a node's items: every item's plane (a
+// patch's, or a receiver's horizon) has the other's points at heights within [low, high], up to
+// `rounding`. A flat node has thickness 0 and a cone of 0: the nodes in its own plane are at height 0
+// (the floor's patches lie on a floor group's horizon and are culled whole, not opened to leaves).
+struct Heights {
+  double low, high, rounding;
+};
+Heights heightsOver(const TreeNode& node, const TreeNode& other);
 
 }  // namespace radbake

@@ -676,28 +676,21 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         }
         const Vec3 d = c.centroid - g.centroid;
         const double dist = length(d);
-        const double gSin = std::min(1.0, g.coneSin);
-        // The cluster's box over the group's horizon: the lowest point, less what the group's
-        // extent and the spread of its normals can take away.
-        double low = 0, high = 0, reach = 0;
-        for (int k = 0; k < 3; ++k) {
-          const double a = g.axis[k] * (c.lo[k] - g.centroid[k]), b = g.axis[k] * (c.hi[k] - g.centroid[k]);
-          low += std::min(a, b);
-          high += std::max(a, b);
-          const double far = std::max(std::abs(c.lo[k] - g.centroid[k]), std::abs(c.hi[k] - g.centroid[k]));
-          reach += far * far;
-        }
-        const double slack = g.radius + gSin * (std::sqrt(reach) + g.radius);
-        if (g.coneSin <= 1 && high + slack <= 0) continue;  // below every receiver's horizon
+        const Heights over = heightsOver(g, c);
+        if (over.high <= over.rounding) continue;  // on or below every receiver's horizon
         const bool mixed = !w.cover && ((g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count));
         const double ratio = dist > 0 ? (g.radius + c.radius) / dist : 1e300;
         const double linkError = 3 * ratio * ratio * c.area / (kPi * dist * dist);
         bool split = true;
-        if (!mixed && g.coneSin <= 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy && low - slack >= 0) {
+        if (!mixed && g.coneSin < 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy && over.low >= -over.rounding) {
           const Vec3 u = d / dist;
           const double alpha = std::asin(c.coneSin), gamma = std::asin(std::min(1.0, ratio));
           const double beta = std::acos(std::clamp(-dot(c.axis, u), -1.0, 1.0));
-          const bool away = beta - alpha - gamma >= kPi / 2, toward = alpha + beta + gamma < kPi / 2;
+          // Facing by the normal cones, or by the group's box over the cluster's patches' planes
+          // (which also passes a floor group and a wall cluster meeting at a corner).
+          const Heights facing = heightsOver(c, g);
+          const bool away = beta - alpha - gamma >= kPi / 2 || facing.high <= facing.rounding;
+          const bool toward = alpha + beta + gamma < kPi / 2 || facing.low >= -facing.rounding;
           if (away && !w.cover) continue;  // every patch shows the group its back
           if (toward || away) {
             // Rays from every receiver of the group, each to a patch of the cluster (spread over
