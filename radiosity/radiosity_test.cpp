@@ -90,11 +90,15 @@ json meshNames(const std::string& file) {
   return names;
 }
 
-class Furnace : public ::testing::TestWithParam<std::tuple<int, Method>> {};
+// (method, transport): both methods with the exact transport, and the bilinear method with the
+// hierarchical one (its far links begin at N = 3 here; Hierarchical.Furnace* goes to N = 16).
+using Solver = std::pair<Method, TransportMode>;
+class Furnace : public ::testing::TestWithParam<std::tuple<int, Solver>> {};
 
 TEST_P(Furnace, RadianceIsTwoAtEveryVertexAndPatch) {
-  const auto [n, method] = GetParam();
-  const Baked b = bake("furnace_cube.gltf", n, method);
+  const auto [n, solver] = GetParam();
+  const auto [method, transport] = solver;
+  const Baked b = bake("furnace_cube.gltf", n, method, 1e-6, transport);
   double worst = 0;
   if (method == Method::kBilinear) {
     ASSERT_EQ(b.solution.vertexRadiance.size(), size_t(6 * (n + 1) * (n + 1)));
@@ -111,9 +115,14 @@ TEST_P(Furnace, RadianceIsTwoAtEveryVertexAndPatch) {
 
 INSTANTIATE_TEST_SUITE_P(
     BothMethods, Furnace,
-    ::testing::Combine(::testing::Values(1, 2, 3, 4, 5, 6, 7, 8), ::testing::Values(Method::kBilinear, Method::kConstant)),
+    ::testing::Combine(::testing::Values(1, 2, 3, 4, 5, 6, 7, 8),
+                       ::testing::Values(Solver{Method::kBilinear, TransportMode::kExact},
+                                         Solver{Method::kBilinear, TransportMode::kHierarchical},
+                                         Solver{Method::kConstant, TransportMode::kExact})),
     [](const auto& info) {
-      return std::string(std::get<1>(info.param) == Method::kBilinear ? "bilinear" : "constant") + "_N" +
+      const Solver solver = std::get<1>(info.param);
+      return std::string(solver.first == Method::kBilinear ? "bilinear" : "constant") +
+             (solver.second == TransportMode::kHierarchical ? "_hierarchical" : "") + "_N" +
              std::to_string(std::get<0>(info.param));
     });
 
@@ -429,16 +438,20 @@ TEST(DoubleSided, AnOutwardFacingBoxIsAFurnaceInside) {
   TessellateOptions t;
   t.subdivide = 2;
   const PatchMesh mesh = tessellate(scene, t);
-  const Solution s = solveRadiosity(scene, mesh);
-  int inside = 0, outside = 0;
-  for (size_t v = 0; v < mesh.positions.size(); ++v) {
-    const Vec3 centre{0.5, 0.5, 0.5};
-    const bool facesIn = dot(mesh.normals[v], centre - mesh.positions[v]) > 0;
-    EXPECT_NEAR(s.vertexRadiance[v].x, facesIn ? 2.0 : 1.0, 1e-6);
-    (facesIn ? inside : outside)++;
+  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+    RadiosityOptions o;
+    o.transport = transport;
+    const Solution s = solveRadiosity(scene, mesh, o);
+    int inside = 0, outside = 0;
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      const Vec3 centre{0.5, 0.5, 0.5};
+      const bool facesIn = dot(mesh.normals[v], centre - mesh.positions[v]) > 0;
+      EXPECT_NEAR(s.vertexRadiance[v].x, facesIn ? 2.0 : 1.0, 1e-6);
+      (facesIn ? inside : outside)++;
+    }
+    EXPECT_EQ(inside, 6 * 9);
+    EXPECT_EQ(outside, 6 * 9);
   }
-  EXPECT_EQ(inside, 6 * 9);
-  EXPECT_EQ(outside, 6 * 9);
 }
 
 }  // namespace
@@ -457,10 +470,15 @@ TEST(SubdivisionSurface, CatmullClarkFurnaceIsTwoEverywhere) {
     t.subdivide = 16;  // the discretization error falls as h²: 3.5e-4 at rate 4, 5e-5 at 16
     const PatchMesh mesh = tessellate(scene, t);
     EXPECT_EQ(mesh.curvedRate, 16);
-    const Solution s = solveRadiosity(scene, mesh);
-    double worst = 0;
-    for (const Vec3& L : s.vertexRadiance) worst = std::max(worst, std::abs(L.x - 2));
-    EXPECT_LT(worst, 1e-4) << (scheme == SubdivisionScheme::kLoop ? "loop" : "catmull-clark");
+    for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+      RadiosityOptions o;
+      o.transport = transport;
+      const Solution s = solveRadiosity(scene, mesh, o);
+      double worst = 0;
+      for (const Vec3& L : s.vertexRadiance) worst = std::max(worst, std::abs(L.x - 2));
+      EXPECT_LT(worst, 1e-4) << (scheme == SubdivisionScheme::kLoop ? "loop" : "catmull-clark")
+                             << (transport == TransportMode::kHierarchical ? " hierarchical" : " exact");
+    }
     // The limit surface is closed: each vertex appears once (no crack along cage edges).
     std::set<std::tuple<double, double, double>> seen;
     for (const Vec3& p : mesh.positions) EXPECT_TRUE(seen.insert({p.x, p.y, p.z}).second);

@@ -933,6 +933,27 @@ TEST(Cli, SceneChoosesTheGltfScene) {
   EXPECT_EQ(r.err, "error: cornell_box.gltf: --scene 3: the file has 1 scenes\n");
 }
 
+// The transport a bake uses, as its report says: hierarchical by default for the bilinear method,
+// exact for the constant one (which has no hierarchical transport yet: asking for it is exit 3).
+TEST(Cli, TransportDefaultsToHierarchicalForBilinear) {
+  const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
+  const fs::path report = tempDir() / "report.json";
+  auto transport = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"bake", in, "-o", (tempDir() / "t.glb").string(), "-q", "--report", report.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const RunResult r = radbake(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return json::parse(std::ifstream(report))["solver"]["transport"].get<std::string>();
+  };
+  EXPECT_EQ(transport({}), "hierarchical");
+  EXPECT_EQ(transport({"--transport", "exact"}), "exact");
+  EXPECT_EQ(transport({"--method", "constant"}), "exact");
+  const RunResult r = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--method", "constant", "--transport", "hierarchical"});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_EQ(r.err, "error: radbake: --transport hierarchical works with the bilinear method only (so far)\n");
+  EXPECT_FALSE(fs::exists(tempDir() / "c.glb"));
+}
+
 TEST(Info, ListsMeshesWithTheirInstances) {
   const RunResult r = radbake({"info", (kTestData / "scenes" / "nested_nodes.gltf").string()});
   ASSERT_EQ(r.code, 0);
@@ -1787,7 +1808,11 @@ TEST(Meshopt, GltfpackCornellBakesLikeTheOriginal) {
   gltfpack(original, quantized, "-cc");         // the default: 14-bit positions, 8-bit OCTAHEDRAL normals
   gltfpack(original, floatNormals, "-cc -vnf");  // float normals through the EXPONENTIAL filter
   gltfpack(original, plain, "");                // the default quantization without meshopt
-  const std::vector<std::string> options{"--subdivide", "2", "--tolerance", "1e-12", "--progress", "none"};
+  // The exact transport: this compares decoded geometry, and the exact answer does not depend on the
+  // order of vertices and patches (gltfpack reorders them; hierarchical clusters follow the order and
+  // move within their accuracy).
+  const std::vector<std::string> options{"--subdivide", "2", "--tolerance", "1e-12", "--progress", "none",
+                                         "--transport", "exact"};
   auto bake = [&](const fs::path& in) {
     const fs::path out = dir / (in.stem().string() + "_baked.gltf");
     std::vector<std::string> args{"bake", in.string(), "-o", out.string()};

@@ -283,7 +283,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   RadiosityOptions radiosityOptions;
   radiosityOptions.relativeResidual = options.tolerance;
   radiosityOptions.method = options.method == "constant" ? Method::kConstant : Method::kBilinear;
-  if (options.transport == "hierarchical") {
+  if (options.transport == "hierarchical" || (options.transport.empty() && radiosityOptions.method == Method::kBilinear)) {
     if (radiosityOptions.method == Method::kConstant)
       throw Error(ExitCode::kUnsupported, "radbake: --transport hierarchical works with the bilinear method only (so far)");
     radiosityOptions.transport = TransportMode::kHierarchical;
@@ -328,7 +328,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
                     {"converged", solution.converged},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
-                    {"transport", options.transport}, {"accuracy", options.accuracy},
+                    {"transport", options.transport.empty() ? std::string(radiosityOptions.transport == TransportMode::kHierarchical ? "hierarchical" : "exact") : options.transport}, {"accuracy", options.accuracy},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree},
                     {"farLinks", solution.farLinks}, {"clusterRays", solution.clusterRays}, {"clusters", solution.clusters},
                     {"enclosedUnknowns", solution.enclosedUnknowns}, {"closureCorrection", solution.closureCorrection},
@@ -428,8 +428,8 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--tolerance", o.tolerance, "relative residual at which the solver stops (default 1e-6)")
       ->check(finiteIn(1e-15, 1.0, "a tolerance from 1e-15 to 1"));
   bakeCmd->add_option("--transport", o.transport,
-                      "exact (default): every receiver gathers from every patch; hierarchical: far clusters of patches "
-                      "at once (bilinear method; docs/radiosity.md)")
+                      "hierarchical (default for the bilinear method): far clusters of patches at once; exact (default "
+                      "for constant): every receiver gathers from every patch (docs/radiosity.md)")
       ->check(CLI::IsMember({"exact", "hierarchical"}));
   bakeCmd->add_option("--accuracy", o.accuracy,
                       "hierarchical transport: largest estimated error of one cluster link, as a share of the hemisphere "

@@ -32,7 +32,7 @@ struct Options {
   std::string report;
   std::optional<std::string> sky;
   double tolerance = 1e-6;
-  std::string transport = "exact";  // or "hierarchical"
+  std::string transport;  // "exact" or "hierarchical"; empty: hierarchical for the bilinear method, exact for constant
   double accuracy = 1e-3;           // hierarchical: the largest estimated error of one far link
   bool strict = false;               // a solve that does not converge is an error (exit 5)
   bool allowOutsidePaths = false;    // buffers and images may lie outside the asset's folder
