@@ -379,6 +379,11 @@ struct Sight {
   std::span<const uint32_t> own;     // tested exactly (empty for a patch's own centre)
 
   bool visible(const Vec3& to) const { return !crossesOwn(to) && occlusion.visible(from, to, ignore); }
+  // visible(to[k]) for every k (up to 16), the rays traced together.
+  void visibleAll(std::span<const Vec3> to, bool* seen) const {
+    occlusion.visibleFrom(from, to, ignore, seen);
+    for (size_t k = 0; k < to.size(); ++k) seen[k] = seen[k] && !crossesOwn(to[k]);
+  }
 
   bool crossesOwn(const Vec3& to) const {
     for (uint32_t k : own) {
@@ -405,12 +410,20 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
   const Vec3& from = sight.from;
   const double lift = sight.occlusion.epsilon() * 10;
   auto target = [&](double s, double t) { return pointOnPatch(q, s, t) + qNormal * lift; };
-  int seen = 0;
-  for (const auto& st : kProbe) seen += sight.visible(target(st[0], st[1]));
+  std::array<Vec3, 5> probes;
+  for (int k = 0; k < 5; ++k) probes[k] = target(kProbe[k][0], kProbe[k][1]);
+  bool probeSeen[5];
+  sight.visibleAll(probes, probeSeen);
+  const int seen = int(std::count(probeSeen, probeSeen + 5, true));
   if (seen == 5) return {1, 1, 1, 1};
   if (seen == 0) return {0, 0, 0, 0};
   constexpr double kNode[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
   constexpr double kWeight[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
+  std::array<Vec3, 16> grid;
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) grid[4 * a + b] = target(kNode[a], kNode[b]);
+  bool gridSeen[16];
+  sight.visibleAll(grid, gridSeen);
   std::array<double, 4> all{}, visible{};
   for (int a = 0; a < 4; ++a)
     for (int b = 0; b < 4; ++b) {
@@ -418,7 +431,7 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
       const Vec3 d = x - from;
       const double r2 = dot(d, d);
       const double kernel = std::max(0.0, dot(n, d)) * std::max(0.0, -dot(qNormal, d)) / (r2 * r2);
-      const bool v = sight.visible(target(kNode[a], kNode[b]));
+      const bool v = gridSeen[4 * a + b];
       const auto nj = shapeFunctions(kNode[a], kNode[b]);
       for (int j = 0; j < 4; ++j) {
         const double w = kWeight[a] * kWeight[b] * nj[j] * (kernel > 0 ? kernel : 1e-300);
@@ -443,13 +456,15 @@ void addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const Rec
   bool above = false;
   for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
   if (!above || dot(patch.normal, p - q[0]) < -occlusion.epsilon()) return;
-  const auto k = vertexQuadKernel(p, nrm, a, q, kernelOptions);
-  if (k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0) return;
+  // Visibility before the kernel: a hidden pair costs its five probe rays and no kernel (in a room
+  // of self-occluding Suzannes, 39.5M of 48.7M kernels were computed for hidden pairs).
   // A crease contribution sits at the receiver itself: nothing can come between.
   const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
   ignore.back() = uint32_t(source);
   const Sight sight{occlusion, mesh, recv.origin[i], ignore, recv.own(i)};
   const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : visibleFraction(sight, nrm, q, patch.normal);
+  if (vis[0] == 0 && vis[1] == 0 && vis[2] == 0 && vis[3] == 0) return;
+  const auto k = vertexQuadKernel(p, nrm, a, q, kernelOptions);
   for (int j = 0; j < 4; ++j) {
     // A triangle's collapsed corner (v3 == v2) adds its shape function to v2.
     if (k[j] * vis[j] != 0) row.emplace_back(patch.v[j], k[j] * vis[j]);

@@ -36,6 +36,7 @@ void skipIgnored(const RTCFilterFunctionNArguments* args) {
 struct Occlusion::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  bool packets = false;  // native 8-wide packets (else rays one by one)
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
     if (device) rtcReleaseDevice(device);
@@ -47,6 +48,7 @@ Occlusion::Occlusion(const PatchMesh& mesh) : impl_(std::make_unique<Impl>()) {
   // and serialize the whole solver.
   impl_->device = rtcNewDevice(nullptr);
   if (!impl_->device) throw std::runtime_error("Embree device could not be created");
+  impl_->packets = rtcGetDeviceProperty(impl_->device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) != 0;
   impl_->scene = rtcNewScene(impl_->device);
   // Robust: watertight-ish, no rays slipping through shared edges. Context filter: the ignore lists.
   rtcSetSceneFlags(impl_->scene, RTCSceneFlags(RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION));
@@ -95,6 +97,40 @@ bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32
   ray.mask = 0xFFFFFFFF;
   rtcOccluded1(impl_->scene, &fc.context, &ray);
   return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
+}
+
+void Occlusion::visibleFrom(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore,
+                            bool* visible) const {
+  if (!impl_->packets) {
+    for (size_t k = 0; k < to.size(); ++k) visible[k] = this->visible(from, to[k], ignore);
+    return;
+  }
+  FilterContext fc{{}, ignore, &passes_};
+  rtcInitIntersectContext(&fc.context);
+  fc.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  if (!ignore.empty() || passes_) fc.context.filter = skipIgnored;
+  for (size_t first = 0; first < to.size(); first += 8) {
+    alignas(32) RTCRay8 ray{};
+    alignas(32) int valid[8] = {};
+    const size_t count = std::min<size_t>(8, to.size() - first);
+    for (size_t k = 0; k < count; ++k) {
+      const Vec3 d = to[first + k] - from;
+      const double dist = length(d);
+      if (dist <= 2 * epsilon_) {
+        visible[first + k] = true;
+        continue;
+      }
+      valid[k] = -1;
+      ray.org_x[k] = float(from.x); ray.org_y[k] = float(from.y); ray.org_z[k] = float(from.z);
+      ray.dir_x[k] = float(d.x / dist); ray.dir_y[k] = float(d.y / dist); ray.dir_z[k] = float(d.z / dist);
+      ray.tnear[k] = float(epsilon_);
+      ray.tfar[k] = float(dist - epsilon_);
+      ray.mask[k] = 0xFFFFFFFF;
+    }
+    rtcOccluded8(valid, impl_->scene, &fc.context, &ray);
+    for (size_t k = 0; k < count; ++k)
+      if (valid[k]) visible[first + k] = ray.tfar[k] >= 0;
+  }
 }
 
 }  // namespace radbake

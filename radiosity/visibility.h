@@ -25,6 +25,10 @@ class Occlusion {
   // do not block: the source patch itself and the patches around the receiving vertex, whose
   // triangles can stand between a point and its own slightly non-planar (curved) patch. Thread-safe.
   bool visible(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore = {}) const;
+  // The same for up to 16 rays from one point (visible[k] for to[k]), traced as packets of 8 where
+  // Embree has them: rays from one point to one patch are coherent, and a packet costs about what
+  // two single rays do.
+  void visibleFrom(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore, bool* visible) const;
   // Cut-out patches (alpha MASK): `passes(patch, u, v)` says whether light goes through `patch` at
   // Embree's quad coordinates (v0 = (0,0), v1 = (1,0), v2 = (1,1), v3 = (0,1); split v0 v1 v3 /
   // v2 v3 v1). Set before any query; only patches with a mask are asked.
