@@ -98,6 +98,13 @@ struct Hierarchical {
   std::vector<double> rowScale;                     // closure (0: dark or facing nothing)
   std::vector<Vec3> normal;                         // receiving normal per vertex
   size_t rays = 0;
+  double worstError = 0;  // the largest Σ of link error estimates over one vertex's links
+  size_t bytes() const {
+    return start.size() * sizeof(size_t) + column.size() * sizeof(uint32_t) + value.size() * sizeof(double) +
+           linkStart.size() * sizeof(size_t) + links.size() * sizeof(ClusterLink) +
+           (source.nodes.size() + receiver.nodes.size()) * sizeof(TreeNode) +
+           (source.order.size() + receiver.order.size()) * sizeof(uint32_t) + shapeAreas.size() * sizeof(shapeAreas[0]);
+  }
 };
 
 // Closure (docs/radiosity.md): an enclosed unknown's hemisphere is covered by the scene, so its row
@@ -645,6 +652,15 @@ ReceiverGroups receiverGroups(const PatchMesh& mesh, const Receivers& recv, cons
   return groups;
 }
 
+// Each node's parent (-1 for the root).
+std::vector<int32_t> parents(const ClusterTree& tree) {
+  std::vector<int32_t> parent(tree.nodes.size(), -1);
+  for (size_t k = 0; k < tree.nodes.size(); ++k)
+    for (int c : tree.nodes[k].child)
+      if (c >= 0) parent[c] = int32_t(k);
+  return parent;
+}
+
 // A source tree over `patches` (indices into the mesh; its order holds positions in `patches`).
 ClusterTree patchTree(const PatchMesh& mesh, const std::vector<uint32_t>& patches, const Closure& closure) {
   std::vector<TreeItem> items(patches.size());
@@ -672,10 +688,12 @@ struct WalkSetup {
 };
 
 std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::function<bool(uint32_t)>& gathers,
+                                                std::vector<double>& nodeError,
                                                 const std::function<void(uint32_t, uint32_t, std::vector<uint32_t>&)>& leaf,
                                                 Ticker& ticker, size_t& raysShot) {
   const ClusterTree &R = w.groups.tree, &S = w.source;
   std::vector<std::vector<ClusterLink>> links(R.nodes.size());
+  nodeError.assign(R.nodes.size(), 0.0);  // Σ of its links' error estimates (tasks own disjoint nodes)
   if (S.empty()) return links;
   std::atomic<size_t> rays{0};
   const double lift = w.occlusion.epsilon() * 10;
@@ -763,6 +781,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             if (seen == 0 && small) continue;
             if (seen == count) {
               links[gi].push_back({ci, d});
+              nodeError[gi] += linkError + (over.low >= -over.rounding ? 0 : horizonError);
               split = false;
             } else if (seen > 0 && factor < kFaintFactor) {
               // Faint and partly hidden (a cluster behind an occluder's silhouette): linked to each
@@ -774,6 +793,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 shot += kFractionRays;
                 if (through == 0) continue;
                 links[gi].push_back({ci, d, double(through) / kFractionRays});
+                nodeError[gi] += linkError + factor / kFractionRays;  // and the share's sampling
                 split = false;
               } else {
                 byVertex = true;
@@ -839,15 +859,13 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
   const std::function<void(double)> none;
   Ticker ticker(none, nv, 0, 0);
   const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy};
+  std::vector<double> nodeError;  // the cover pass's own estimate is not reported
   const auto links = walkPairs(
-      setup, [&](uint32_t v) { return !closure.rows[v]; },
+      setup, [&](uint32_t v) { return !closure.rows[v]; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) { covered[v] += skyCover(mesh, occlusion, recv, v, patch, ignore); },
       ticker, rays);
   // Each vertex adds the links of its groups, from its leaf to the root.
-  std::vector<int32_t> parent(groups.tree.nodes.size(), -1);
-  for (size_t k = 0; k < groups.tree.nodes.size(); ++k)
-    for (int c : groups.tree.nodes[k].child)
-      if (c >= 0) parent[c] = int32_t(k);
+  const std::vector<int32_t> parent = parents(groups.tree);
   std::vector<double> sky(nv, 0.0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 256), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t v = range.begin(); v != range.end(); ++v) {
@@ -893,8 +911,9 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   std::vector<Row> near(nv);
   Ticker ticker(options.progress, nv, 0.0, 0.8);
   const WalkSetup setup{mesh, occlusion, recv, groups, h.source, all, false, options.accuracy};
+  std::vector<double> nodeError;
   auto links = walkPairs(
-      setup, [&](uint32_t v) { return h.rowScale[v] != 0; },
+      setup, [&](uint32_t v) { return h.rowScale[v] != 0; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
         addPatchKernel(mesh, occlusion, recv, kernelOptions, v, patch, ignore, near[v]);
       },
@@ -909,6 +928,13 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
     }
     h.start.push_back(h.column.size());
     Row().swap(near[v]);
+  }
+  // The error estimate of what a vertex gathers far: its groups' link estimates, leaf to root.
+  const std::vector<int32_t> parent = parents(h.receiver);
+  for (size_t v = 0; v < nv; ++v) {
+    double error = 0;
+    for (int32_t k = h.leafOf[v] == kNoLeaf ? -1 : int32_t(h.leafOf[v]); k >= 0; k = parent[k]) error += nodeError[k];
+    h.worstError = std::max(h.worstError, error);
   }
   h.linkStart.assign(1, 0);
   for (auto& list : links) {
@@ -1262,11 +1288,14 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
         solution.farLinks = H.links.size();
         solution.clusterRays += H.rays;
         solution.clusters = H.source.nodes.size() + H.receiver.nodes.size();
+        solution.linkErrorBound = H.worstError;
+        solution.transportBytes = H.bytes();
       } else {
         K = bilinearTransport(mesh, occlusion, options, recv, closure);
         applyClosure(K, closure);
         storeIfItFits(K, options, solution.matrixEntries);
         solution.matrixFree = !K.stored();
+        solution.transportBytes = K.stored() ? solution.matrixEntries * kBytesPerEntry : 0;
       }
     }
     iterate(gather, source, reflectance, options, solution.vertexRadiance, gathered, solution);
@@ -1303,6 +1332,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       F = constantTransport(mesh, occlusion, options, closure);
       applyClosure(F, closure);
       storeIfItFits(F, options, solution.matrixEntries);
+      solution.transportBytes = F.stored() ? solution.matrixEntries * kBytesPerEntry : 0;
       solution.matrixFree = !F.stored();
     }
     iterate(exactGather(F), source, reflectance, options, solution.patchRadiance, gathered, solution);

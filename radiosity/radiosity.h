@@ -48,7 +48,11 @@ struct Solution {
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
   size_t farLinks = 0;           // hierarchical: links from receivers to whole source clusters
   size_t clusterRays = 0;        // hierarchical: visibility rays shot at clusters
-  size_t clusters = 0;           // hierarchical: nodes of the source tree
+  size_t clusters = 0;           // hierarchical: nodes of the source and receiver trees
+  // hierarchical: the largest sum, over one vertex's far links, of their error estimates (a share
+  // of its hemisphere; each link is made below --accuracy)
+  double linkErrorBound = 0;
+  size_t transportBytes = 0;     // what the transport keeps (rows, or near entries, links and trees)
   bool matrixFree = false;
   // Closure: unknowns inside a closed surface (their total factor is exactly 1), and the largest
   // correction their rows needed, |Σ_j K_ij − 1| before scaling (partial-visibility estimates).

@@ -943,9 +943,18 @@ TEST(Cli, TransportDefaultsToHierarchicalForBilinear) {
     args.insert(args.end(), extra.begin(), extra.end());
     const RunResult r = radbake(args);
     EXPECT_EQ(r.code, 0) << r.err;
-    return json::parse(std::ifstream(report))["solver"]["transport"].get<std::string>();
+    const json solver = json::parse(std::ifstream(report))["solver"];
+    EXPECT_GT(solver["transportBytes"].get<double>(), 0) << solver;
+    if (solver["transport"] == "hierarchical") {  // far links at N = 8, each under --accuracy
+      EXPECT_GT(solver["farLinks"].get<double>(), 0) << solver;
+      EXPECT_GT(solver["linkErrorBound"].get<double>(), 0) << solver;
+      EXPECT_LT(solver["linkErrorBound"].get<double>(), 1e-3 * solver["farLinks"].get<double>()) << solver;
+    } else {
+      EXPECT_EQ(solver["linkErrorBound"].get<double>(), 0) << solver;
+    }
+    return solver["transport"].get<std::string>();
   };
-  EXPECT_EQ(transport({}), "hierarchical");
+  EXPECT_EQ(transport({"--subdivide", "8"}), "hierarchical");
   EXPECT_EQ(transport({"--transport", "exact"}), "exact");
   EXPECT_EQ(transport({"--method", "constant"}), "exact");
   const RunResult r = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--method", "constant", "--transport", "hierarchical"});

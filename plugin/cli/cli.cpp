@@ -331,6 +331,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                     {"transport", options.transport.empty() ? std::string(radiosityOptions.transport == TransportMode::kHierarchical ? "hierarchical" : "exact") : options.transport}, {"accuracy", options.accuracy},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree},
                     {"farLinks", solution.farLinks}, {"clusterRays", solution.clusterRays}, {"clusters", solution.clusters},
+                    {"linkErrorBound", solution.linkErrorBound}, {"transportBytes", solution.transportBytes},
                     {"enclosedUnknowns", solution.enclosedUnknowns}, {"closureCorrection", solution.closureCorrection},
                     {"darkUnknowns", solution.darkUnknowns}}},
         {"energy", {{"emittedPower", solution.emittedPower}, {"absorbedPower", solution.absorbedPower},
