@@ -748,9 +748,11 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // Rays from every receiver of the group, each to a patch of the cluster (spread over
             // it by a multiplicative hash): fewer, from sample receivers only, let light through
             // to the floor beside and under a block (measured: 3% errors there).
-            // Rays per receiver grow with the link's factor (about A/(π d²)): a wrong answer
-            // costs at most that much light, so faint links get one ray and bright ones kClusterRays.
-            const double factor = c.area / (kPi * dist * dist);
+            // Rays per receiver grow with the link's factor, |n_g · w| |w · Σ A n| / (π |w|⁴) with
+            // both cosines (A/(π d²) without them gave grazing links 4 rays: 37% more rays at
+            // Cornell N = 20 for 2.57% largest error instead of 2.75%): a wrong answer costs at most
+            // that much light, so faint links get one ray and bright ones kClusterRays.
+            const double factor = std::abs(dot(g.axis, d)) * std::abs(dot(d, c.areaNormal)) / (kPi * dist * dist * dist * dist);
             const uint32_t perReceiver = std::clamp<uint32_t>(uint32_t(std::ceil(factor / kFactorPerRay)), 1, kClusterRays);
             const uint32_t count = g.count * perReceiver;
             auto ray = [&](uint32_t k, uint32_t per) {  // receiver k / per to a hashed patch
