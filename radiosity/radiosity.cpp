@@ -589,7 +589,6 @@ constexpr double kFactorPerRay = 1e-3;
 // A cluster dipping under a flat group's plane is linked when its horizon error is below this
 // share of --accuracy.
 constexpr double kHorizonShare = 0.1;
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // A partly hidden cluster fainter than this (its factor, about A/(π d²)) is linked to each vertex
 // with the share of kFractionRays rays that get through, instead of being opened further.
 constexpr double kFaintFactor = 1e-4;
@@ -613,6 +612,7 @@ constexpr uint32_t kTaskVertices = 256;
 struct ReceiverGroups {
   ClusterTree tree;
   std::vector<uint32_t> leafOf;  // vertex → its leaf
+  std::vector<int32_t> parent;   // node → its parent (-1 for the root): a vertex's groups, leaf up
   std::vector<uint32_t> tasks;   // subtrees of at most kTaskVertices vertices, in tree order
 };
 
@@ -640,8 +640,13 @@ ReceiverGroups receiverGroups(const PatchMesh& mesh, const Receivers& recv, cons
   groups.tree = buildClusterTree(items);
   for (uint32_t& item : groups.tree.order) item = vertexOf[item];  // the tree's order holds vertices
   groups.leafOf.assign(nv, kNoLeaf);
-  for (size_t k = 0; k < groups.tree.nodes.size(); ++k)
-    if (groups.tree.nodes[k].count == 1) groups.leafOf[groups.tree.order[groups.tree.nodes[k].first]] = uint32_t(k);
+  groups.parent.assign(groups.tree.nodes.size(), -1);
+  for (size_t k = 0; k < groups.tree.nodes.size(); ++k) {
+    const TreeNode& node = groups.tree.nodes[k];
+    if (node.count == 1) groups.leafOf[groups.tree.order[node.first]] = uint32_t(k);
+    for (int c : node.child)
+      if (c >= 0) groups.parent[c] = int32_t(k);
+  }
   for (std::vector<uint32_t> stack{0}; !stack.empty() && !groups.tree.empty();) {
     const uint32_t k = stack.back();
     stack.pop_back();
@@ -650,15 +655,6 @@ ReceiverGroups receiverGroups(const PatchMesh& mesh, const Receivers& recv, cons
     else for (int c = 1; c >= 0; --c) stack.push_back(uint32_t(node.child[c]));
   }
   return groups;
-}
-
-// Each node's parent (-1 for the root).
-std::vector<int32_t> parents(const ClusterTree& tree) {
-  std::vector<int32_t> parent(tree.nodes.size(), -1);
-  for (size_t k = 0; k < tree.nodes.size(); ++k)
-    for (int c : tree.nodes[k].child)
-      if (c >= 0) parent[c] = int32_t(k);
-  return parent;
 }
 
 // A source tree over `patches` (indices into the mesh; its order holds positions in `patches`).
@@ -730,7 +726,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // (Not in the sky pass: its cover is not closed by anything, and the furnaces under a sky
         // are exact to 1e-5.)
         const bool flat = !w.cover && g.coneSin < 1e-6 && g.thickness <= 1e-9 * (g.radius + dist);
-        const double horizonError = flat ? c.area / (kPi * dist * dist) * std::max(0.0, -over.low) / dist : kInfinity;
+        const double horizonError = flat ? c.area / (kPi * dist * dist) * std::max(0.0, -over.low) / dist
+                                         : std::numeric_limits<double>::infinity();
         const bool above = over.low >= -over.rounding || horizonError < w.accuracy * kHorizonShare;
         bool split = true;
         bool byVertex = false;  // open the group down to its vertices
@@ -867,7 +864,7 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) { covered[v] += skyCover(mesh, occlusion, recv, v, patch, ignore); },
       ticker, rays);
   // Each vertex adds the links of its groups, from its leaf to the root.
-  const std::vector<int32_t> parent = parents(groups.tree);
+  const std::vector<int32_t>& parent = groups.parent;
   std::vector<double> sky(nv, 0.0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 256), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t v = range.begin(); v != range.end(); ++v) {
@@ -932,10 +929,9 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
     Row().swap(near[v]);
   }
   // The error estimate of what a vertex gathers far: its groups' link estimates, leaf to root.
-  const std::vector<int32_t> parent = parents(h.receiver);
   for (size_t v = 0; v < nv; ++v) {
     double error = 0;
-    for (int32_t k = h.leafOf[v] == kNoLeaf ? -1 : int32_t(h.leafOf[v]); k >= 0; k = parent[k]) error += nodeError[k];
+    for (int32_t k = h.leafOf[v] == kNoLeaf ? -1 : int32_t(h.leafOf[v]); k >= 0; k = groups.parent[k]) error += nodeError[k];
     h.worstError = std::max(h.worstError, error);
   }
   h.linkStart.assign(1, 0);

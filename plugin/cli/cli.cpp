@@ -328,7 +328,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
                     {"converged", solution.converged},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
-                    {"transport", options.transport.empty() ? std::string(radiosityOptions.transport == TransportMode::kHierarchical ? "hierarchical" : "exact") : options.transport}, {"accuracy", options.accuracy},
+                    {"transport", radiosityOptions.transport == TransportMode::kHierarchical ? "hierarchical" : "exact"}, {"accuracy", options.accuracy},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree},
                     {"farLinks", solution.farLinks}, {"clusterRays", solution.clusterRays}, {"clusters", solution.clusters},
                     {"linkErrorBound", solution.linkErrorBound}, {"transportBytes", solution.transportBytes},
