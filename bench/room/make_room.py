@@ -12,7 +12,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests", "blender"))
-from materials import material  # noqa: E402
+from materials import inward_box, material  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 out = args[0]
@@ -27,14 +27,7 @@ def assign(obj, mat):
 
 
 # The room: a 6 m x 3 m x 4 m box seen from inside.
-bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 0, 1.5))
-room = bpy.context.object
-room.scale = (6, 4, 3)
-bpy.ops.object.transform_apply(scale=True)
-bpy.ops.object.mode_set(mode="EDIT")
-bpy.ops.mesh.select_all(action="SELECT")
-bpy.ops.mesh.flip_normals()
-bpy.ops.object.mode_set(mode="OBJECT")
+room = inward_box((6, 4, 3))
 assign(room, material("walls", (0.7, 0.7, 0.7)))
 
 # The ceiling light: a panel just below the ceiling, facing down.

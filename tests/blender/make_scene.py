@@ -16,22 +16,15 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from materials import material  # noqa: E402
+from materials import inward_box, material  # noqa: E402
 
 out = sys.argv[sys.argv.index("--") + 1]
 bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
 # The room: 6 × 6 × 3, normals inward.
-bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 0, 1.5))
-room = bpy.context.active_object
+room = inward_box((6, 6, 3))
 room.name = "Room"
-room.scale = (6, 6, 3)
-bpy.ops.object.transform_apply(scale=True)
-bpy.ops.object.mode_set(mode="EDIT")
-bpy.ops.mesh.select_all(action="SELECT")
-bpy.ops.mesh.flip_normals()
-bpy.ops.object.mode_set(mode="OBJECT")
 room.data.materials.append(material("Walls", (0.7, 0.7, 0.7)))
 
 # A bevelled crate, the modifier applied, then three linked duplicates.
