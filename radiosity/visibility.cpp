@@ -18,6 +18,7 @@ struct FilterContext {
   RTCIntersectContext context;  // first: Embree hands back a pointer to it
   std::span<const uint32_t> ignore;
   const std::function<bool(uint32_t, double, double)>* passes;
+  const Occlusion::Segment* segments = nullptr;  // per ray (by its id) instead of `ignore`
 };
 
 void skipIgnored(const RTCFilterFunctionNArguments* args) {
@@ -25,7 +26,8 @@ void skipIgnored(const RTCFilterFunctionNArguments* args) {
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] == 0) continue;
     const uint32_t prim = RTCHitN_primID(args->hit, args->N, i);
-    const bool ignored = std::find(fc->ignore.begin(), fc->ignore.end(), prim) != fc->ignore.end();
+    const std::span<const uint32_t> ignore = fc->segments ? fc->segments[RTCRayN_id(args->ray, args->N, i)].ignore : fc->ignore;
+    const bool ignored = std::find(ignore.begin(), ignore.end(), prim) != ignore.end();
     if (ignored || (*fc->passes && (*fc->passes)(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i))))
       args->valid[i] = 0;
   }
@@ -126,6 +128,41 @@ void Occlusion::visibleFrom(const Vec3& from, std::span<const Vec3> to, std::spa
       ray.tnear[k] = float(epsilon_);
       ray.tfar[k] = float(dist - epsilon_);
       ray.mask[k] = 0xFFFFFFFF;
+    }
+    rtcOccluded8(valid, impl_->scene, &fc.context, &ray);
+    for (size_t k = 0; k < count; ++k)
+      if (valid[k]) visible[first + k] = ray.tfar[k] >= 0;
+  }
+}
+
+void Occlusion::visibleEach(std::span<const Segment> segments, bool* visible) const {
+  if (!impl_->packets) {
+    for (size_t k = 0; k < segments.size(); ++k) visible[k] = this->visible(segments[k].from, segments[k].to, segments[k].ignore);
+    return;
+  }
+  FilterContext fc{{}, {}, &passes_, segments.data()};
+  rtcInitIntersectContext(&fc.context);
+  fc.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  fc.context.filter = skipIgnored;
+  for (size_t first = 0; first < segments.size(); first += 8) {
+    alignas(32) RTCRay8 ray{};
+    alignas(32) int valid[8] = {};
+    const size_t count = std::min<size_t>(8, segments.size() - first);
+    for (size_t k = 0; k < count; ++k) {
+      const Segment& s = segments[first + k];
+      const Vec3 d = s.to - s.from;
+      const double dist = length(d);
+      if (dist <= 2 * epsilon_) {
+        visible[first + k] = true;
+        continue;
+      }
+      valid[k] = -1;
+      ray.org_x[k] = float(s.from.x); ray.org_y[k] = float(s.from.y); ray.org_z[k] = float(s.from.z);
+      ray.dir_x[k] = float(d.x / dist); ray.dir_y[k] = float(d.y / dist); ray.dir_z[k] = float(d.z / dist);
+      ray.tnear[k] = float(epsilon_);
+      ray.tfar[k] = float(dist - epsilon_);
+      ray.mask[k] = 0xFFFFFFFF;
+      ray.id[k] = unsigned(first + k);  // the filter finds the segment's ignore list by it
     }
     rtcOccluded8(valid, impl_->scene, &fc.context, &ray);
     for (size_t k = 0; k < count; ++k)

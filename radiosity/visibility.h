@@ -29,6 +29,14 @@ class Occlusion {
   // Embree has them: rays from one point to one patch are coherent, and a packet costs about what
   // two single rays do.
   void visibleFrom(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore, bool* visible) const;
+  // The same for any number of segments, each with its own ends and ignore list (rays from the
+  // receivers of a group to the patches of a cluster: nearby origins, nearly parallel), in packets
+  // of 8 where Embree has them.
+  struct Segment {
+    Vec3 from, to;
+    std::span<const uint32_t> ignore;
+  };
+  void visibleEach(std::span<const Segment> segments, bool* visible) const;
   // Cut-out patches (alpha MASK): `passes(patch, u, v)` says whether light goes through `patch` at
   // Embree's quad coordinates (v0 = (0,0), v1 = (1,0), v2 = (1,1), v3 = (0,1); split v0 v1 v3 /
   // v2 v3 v1). Set before any query; only patches with a mask are asked.
