@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config
-  libtinygltf-dev libosd-dev libeigen3-dev libopenexr-dev libimath-dev libopencolorio-dev
+  libtinygltf-dev libosd-dev libopenexr-dev libimath-dev libopencolorio-dev
   libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libstb-dev libdraco-dev libmeshoptimizer-dev
   blender python3-numpy xvfb xauth)
 packages+=(chromium)  # the browser render test (tests/browser): three.js in headless Chromium
