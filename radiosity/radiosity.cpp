@@ -79,9 +79,8 @@ struct Transport {
 // cluster's vector moment of L. Each group keeps Φ at its centroid and its gradient, so that a
 // receiver off the centroid is served to second order.
 struct ClusterLink {
-  uint32_t source;     // node of the source tree
-  Vec3 w;              // from the group's centroid to the cluster's
-  double visible = 1;  // the seen share: below 1 only for a faint, partly hidden cluster and one vertex
+  uint32_t source;    // node of the source tree (w, from the group's centroid to its, is recomputed)
+  float visible = 1;  // the seen share: below 1 only for a faint, partly hidden cluster and one vertex
 };
 
 constexpr uint32_t kNoLeaf = UINT32_MAX;  // a vertex that gathers nothing is in no group
@@ -536,21 +535,28 @@ std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<std::array<
   const ClusterTree& R = h.receiver;
   std::vector<LocalField> field(R.nodes.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, R.nodes.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t k = range.begin(); k != range.end(); ++k)
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const bool leaf = R.nodes[k].count == 1;  // a leaf's J is never pushed anywhere
       for (size_t e = h.linkStart[k]; e < h.linkStart[k + 1]; ++e) {
-        const Vec3& w = h.links[e].w;
+        const Vec3 w = h.source.nodes[h.links[e].source].centroid - R.nodes[k].centroid;
         const double d2 = dot(w, w), s = h.links[e].visible / (kPi * d2 * d2);
+        // ∂Φ/∂p = (1/π) [(w·M) (I − 4 w wᵀ / |w|²) + w Mᵀ] / |w|⁴: the bracket's first matrix is
+        // the same for the three channels.
+        std::array<double, 9> P;
+        if (!leaf)
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) P[3 * a + b] = (a == b ? 1.0 : 0.0) - 4 * w[a] * w[b] / d2;
         for (int c = 0; c < 3; ++c) {
           const Vec3& m = moment[h.links[e].source][c];
-          const double wm = dot(w, m);
-          field[k].phi[c] += w * (-wm * s);
-          // ∂Φ/∂p = (1/π) [(w·M) I + w Mᵀ − 4 (w·M) w wᵀ / |w|²] / |w|⁴
+          const double swm = s * dot(w, m);
+          field[k].phi[c] += w * -swm;
+          if (leaf) continue;
           auto& J = field[k].jacobian[c];
           for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              J[3 * a + b] += s * ((a == b ? wm : 0) + w[a] * m[b] - 4 * wm * w[a] * w[b] / d2);
+            for (int b = 0; b < 3; ++b) J[3 * a + b] += swm * P[3 * a + b] + s * w[a] * m[b];
         }
       }
+    }
   });
   for (size_t k = 0; k < R.nodes.size(); ++k) {
     const TreeNode& node = R.nodes[k];
@@ -694,6 +700,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
   if (S.empty()) return links;
   std::atomic<size_t> rays{0};
   const double lift = w.occlusion.epsilon() * 10;
+  std::vector<Vec3> centre(w.patchOf.size());  // the cluster rays' targets, per source item
+  for (size_t k = 0; k < centre.size(); ++k) centre[k] = pointOnPatch(corners(w.mesh, w.mesh.patches[w.patchOf[k]]), 0, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, w.groups.tasks.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint32_t> ignore;
     std::vector<Occlusion::Segment> segments;
@@ -735,10 +743,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // the cluster shows the group only its back, whatever else holds (the back twins of a
         // double-sided surface were otherwise walked down to single patches wherever the front
         // ones were).
-        if (!w.cover) {
-          const Heights facing = heightsOver(c, g);
-          if (facing.high < -facing.rounding) continue;
-        }
+        const Heights facing = heightsOver(c, g);
+        if (!w.cover && facing.high < -facing.rounding) continue;
         const bool mixed = !w.cover && ((g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count));
         const double ratio = dist > 0 ? (g.radius + c.radius) / dist : 1e300;
         const double linkError = 3 * ratio * ratio * c.area / (kPi * dist * dist);
@@ -760,7 +766,6 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           const double beta = std::acos(std::clamp(-dot(c.axis, u), -1.0, 1.0));
           // Facing by the normal cones, or by the group's box over the cluster's patches' planes
           // (which also passes a floor group and a wall cluster meeting at a corner).
-          const Heights facing = heightsOver(c, g);
           const bool away = beta - alpha - gamma >= kPi / 2 || facing.high <= facing.rounding;
           const bool toward = alpha + beta + gamma < kPi / 2 || facing.low >= -facing.rounding;
           if (away && !w.cover) continue;  // every patch shows the group its back
@@ -787,9 +792,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 for (uint32_t j = first; j < last; ++j) {
                   const uint32_t k = index(j);
                   const uint32_t v = R.order[g.first + k / per];
-                  const uint32_t p = w.patchOf[S.order[c.first + uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count)]];
-                  const Patch& patch = w.mesh.patches[p];
-                  const Vec3 target = pointOnPatch(corners(w.mesh, patch), 0, 0) + patch.normal * (away ? -lift : lift);
+                  const uint32_t item = S.order[c.first + uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count)];
+                  const Vec3 target = centre[item] + w.mesh.patches[w.patchOf[item]].normal * (away ? -lift : lift);
                   // A patch dipping under a flat group's plane (linked by horizonError): its centre
                   // below the plane sends no light and is not asked.
                   if (flat && dot(w.recv.normal[v], target - w.mesh.positions[v]) <= 0) {
@@ -823,7 +827,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // Cornell box at N = 40, 69M of 120M cluster rays went to finding the blocks' shadows).
             if (seen == 0 && asked == count) continue;
             if (seen == count && asked == count) {
-              links[gi].push_back({ci, d});
+              links[gi].push_back({ci});
               nodeError[gi] += linkError + (over.low >= -over.rounding ? 0 : horizonError);
               split = false;
             } else if (seen > 0 && factor < kFaintFactor) {
@@ -833,7 +837,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
               if (g.count == 1) {
                 const uint32_t through = trace(kFractionRays, kFractionRays, [](uint32_t k) { return k; }, false).first;
                 if (through == 0) continue;
-                links[gi].push_back({ci, d, double(through) / kFractionRays});
+                links[gi].push_back({ci, float(through) / kFractionRays});
                 nodeError[gi] += linkError + factor / kFractionRays;  // and the share's sampling
                 split = false;
               } else {
