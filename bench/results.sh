@@ -2,8 +2,9 @@
 # Regenerates every table and figure of docs/results.md from scratch, one part after another (run
 # it on an otherwise idle machine: the timing tables measure wall time). Each part writes its
 # Markdown tables under bench/*/out/ (and bench/out/) and its plots under docs/images/, and this
-# script prints how long each part took. About 1 hour on 2 cores.
-#   bench/results.sh [part ...]    parts: kernels cornell fig11 convergence cycles scaling furnaces (default: all)
+# script prints how long each part took. About 1.5 hours on 2 cores.
+#   bench/results.sh [part ...]    parts: kernels cornell fig11 convergence cycles scaling furnaces
+#                                  hierarchical rooms (default: all; rooms alone takes about 15 minutes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh >/dev/null
@@ -12,7 +13,7 @@ if ! /usr/bin/python3 -c "import matplotlib, numpy, scipy" 2>/dev/null; then
   sudo_cmd=""; [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
   $sudo_cmd apt-get install -y -qq python3-matplotlib python3-numpy python3-scipy >/dev/null
 fi
-parts=("$@"); [ ${#parts[@]} -gt 0 ] || parts=(kernels cornell fig11 convergence cycles scaling furnaces)
+parts=("$@"); [ ${#parts[@]} -gt 0 ] || parts=(kernels cornell fig11 convergence cycles scaling furnaces hierarchical rooms)
 mkdir -p bench/out
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), load $(cut -d' ' -f1-3 /proc/loadavg), $(date -u +%Y-%m-%dT%H:%MZ)"
 for part in "${parts[@]}"; do
@@ -25,6 +26,8 @@ for part in "${parts[@]}"; do
     cycles) bench/cycles/run.sh >/dev/null ;;
     scaling) bench/scaling/run.sh >/dev/null ;;
     furnaces) bench/furnaces/run.sh >/dev/null ;;
+    hierarchical) mkdir -p bench/hierarchical/out && bench/hierarchical/run.sh >bench/hierarchical/out/cornell.md ;;
+    rooms) mkdir -p bench/room/out && bench/room/run.sh 1:64 2:128 >bench/room/out/rooms.md ;;
     *) echo "bench/results.sh: unknown part $part" >&2; exit 1 ;;
   esac
   echo "$part: $(( $(date +%s) - start )) s"

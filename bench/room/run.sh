@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Issue 16's Blender room at growing sizes, up to about a million triangles: bench/room/make_room.py
+# builds each room with Blender (Suzanne subdivision LEVEL, sphere SEGMENTS; the first size is the
+# issue's room, 15.8k triangles), then radbake bakes it with the default (hierarchical) transport.
+# Prints a Markdown table (triangles, patches, wall time, peak memory, near entries, far links,
+# cluster rays) and the exponent of time against patches. A size whose bake passes CASE_LIMIT
+# seconds (default 1800) is stopped and reported as such; the larger sizes are then skipped.
+#
+#   bench/room/run.sh [LEVEL:SEGMENTS ...]   default 1:64 2:128 3:256 4:512 (16k, 64k, 256k, 1.03M triangles)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+bin=build/plugin/cli/radbake
+[ -x "$bin" ] || scripts/build.sh
+sizes=("$@"); [ ${#sizes[@]} -gt 0 ] || sizes=(1:64 2:128 3:256 4:512)
+limit=${CASE_LIMIT:-1800}
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), $(free -g | awk '/Mem:/ {print $2}') GiB, $(date -u +%Y-%m-%d), load $(cut -d' ' -f1 /proc/loadavg)"
+echo
+echo "| Suzanne level, sphere segments | triangles | patches | wall s | peak MiB | near entries | far links | cluster rays |"
+echo "|---|---:|---:|---:|---:|---:|---:|---:|"
+for size in "${sizes[@]}"; do
+  level=${size%%:*} segments=${size##*:}
+  blender -b --factory-startup --python-exit-code 1 --python bench/room/make_room.py -- "$tmp/room.glb" "$level" "$segments" \
+    >"$tmp/blender.log" 2>&1 || { cat "$tmp/blender.log" >&2; exit 1; }
+  triangles=$("$bin" info "$tmp/room.glb" | sed -n 's/.*instances, \([0-9]*\) triangles.*/\1/p')
+  if ! /usr/bin/time -f "%e %M" -o "$tmp/time" timeout "$limit" "$bin" bake "$tmp/room.glb" -o "$tmp/out.glb" \
+      --report "$tmp/report.json" -q; then
+    echo "| $level, $segments | $triangles | – | not finished in $limit s | – | – | – | – |"
+    break
+  fi
+  python3 - "$level" "$segments" "$triangles" "$tmp" <<'PY' | tee -a "$tmp/rows"
+import json, sys
+level, segments, triangles, tmp = sys.argv[1:]
+wall, kib = open(f"{tmp}/time").read().split()
+r = json.load(open(f"{tmp}/report.json"))
+s = r["solver"]
+print(f"| {level}, {segments} | {triangles} | {r['counts']['patches']} | {float(wall):.1f} | {int(kib) // 1024} | "
+      f"{s['matrixEntries']} | {s['farLinks']} | {s['clusterRays']} |")
+PY
+done
+python3 - "$tmp/rows" <<'PY'
+import math, os, sys
+if not os.path.exists(sys.argv[1]):
+    sys.exit()
+rows = [line.split("|") for line in open(sys.argv[1])]
+pts = [(int(r[3]), float(r[4])) for r in rows]
+if len(pts) >= 2:
+    xs = [math.log(p) for p, _ in pts]; ys = [math.log(t) for _, t in pts]
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    k = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
+    print(f"\nfitted growth of wall time from {pts[0][0]} to {pts[-1][0]} patches: n^{k:.2f}")
+PY
