@@ -727,11 +727,11 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         const Vec3 d = c.centroid - g.centroid;
         const double dist = length(d);
         // Where the cluster lies against the receivers' horizons. A small group asks each receiver
-        // (its leaf node is exact: one point, one plane); a large one bounds them all by its cone,
-        // which on a curved surface is loose (tan(cone) × distance) and would walk every pair of
-        // two curved objects down to single patches.
+        // (its leaf node is exact: one point, one plane) where the cone's bound cannot tell; a large
+        // group keeps the bound, which on a curved surface is loose (tan(cone) × distance) and
+        // would walk every pair of two curved objects down to single patches.
         Heights over = heightsOver(g, c);
-        if (g.count > 1 && g.count <= kExactHorizons && g.coneSin > 0) {
+        if (g.count > 1 && g.count <= kExactHorizons && g.coneSin > 0 && over.low < -over.rounding && over.high > over.rounding) {
           over = {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), 0};
           for (uint32_t k = g.first; k < g.first + g.count; ++k) {
             const Heights h = heightsOver(R.nodes[w.groups.leafOf[R.order[k]]], c);
