@@ -7,15 +7,13 @@
 # default run takes about 8 minutes on 2 cores, most of it N = 56 and 65.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+. bench/common.sh
 bin=build/plugin/cli/radbake
 [ -x "$bin" ] || scripts/build.sh
 levels=("$@"); [ ${#levels[@]} -gt 0 ] || levels=(7 10 14 20 28 40 56 65)
 exactMax=${EXACT_MAX:-20}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), $(date -u +%Y-%m-%d), load $(cut -d' ' -f1 /proc/loadavg)"
-echo
-echo "| N | patches | hierarchical s | MiB | near entries | far links | cluster rays | exact s | exact MiB | speed-up | RMS | largest |"
-echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+table_start N patches "hierarchical s" MiB "near entries" "far links" "cluster rays" "exact s" "exact MiB" speed-up RMS largest
 for n in "${levels[@]}"; do
   transports=(hierarchical)
   [ "$n" -le "$exactMax" ] && transports+=(exact)
@@ -44,13 +42,4 @@ print(row)
 PY
   rm -f "$tmp"/exact.*
 done
-python3 - "$tmp/rows" <<'PY'
-import math, sys
-rows = [line.split("|") for line in open(sys.argv[1])]
-pts = [(int(r[2]), float(r[3])) for r in rows if int(r[2]) >= 9000]
-if len(pts) >= 2:
-    xs = [math.log(p) for p, _ in pts]; ys = [math.log(t) for _, t in pts]
-    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
-    k = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
-    print(f"\nfitted growth of hierarchical wall time from {pts[0][0]} to {pts[-1][0]} patches: n^{k:.2f}")
-PY
+fit_growth "$tmp/rows" 2 3 9000

@@ -9,15 +9,13 @@
 #   bench/room/run.sh [LEVEL:SEGMENTS ...]   default 1:64 2:128 3:256 4:512 (16k, 64k, 256k, 1.03M triangles)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+. bench/common.sh
 bin=build/plugin/cli/radbake
 [ -x "$bin" ] || scripts/build.sh
 sizes=("$@"); [ ${#sizes[@]} -gt 0 ] || sizes=(1:64 2:128 3:256 4:512)
 limit=${CASE_LIMIT:-1800}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), $(free -g | awk '/Mem:/ {print $2}') GiB, $(date -u +%Y-%m-%d), load $(cut -d' ' -f1 /proc/loadavg)"
-echo
-echo "| Suzanne level, sphere segments | triangles | patches | wall s | peak MiB | near entries | far links | cluster rays |"
-echo "|---|---:|---:|---:|---:|---:|---:|---:|"
+table_start "Suzanne level, sphere segments" triangles patches "wall s" "peak MiB" "near entries" "far links" "cluster rays"
 for size in "${sizes[@]}"; do
   level=${size%%:*} segments=${size##*:}
   blender -b --factory-startup --python-exit-code 1 --python bench/room/make_room.py -- "$tmp/room.glb" "$level" "$segments" \
@@ -38,15 +36,4 @@ print(f"| {level}, {segments} | {triangles} | {r['counts']['patches']} | {float(
       f"{s['matrixEntries']} | {s['farLinks']} | {s['clusterRays']} |")
 PY
 done
-python3 - "$tmp/rows" <<'PY'
-import math, os, sys
-if not os.path.exists(sys.argv[1]):
-    sys.exit()
-rows = [line.split("|") for line in open(sys.argv[1])]
-pts = [(int(r[3]), float(r[4])) for r in rows]
-if len(pts) >= 2:
-    xs = [math.log(p) for p, _ in pts]; ys = [math.log(t) for _, t in pts]
-    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
-    k = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
-    print(f"\nfitted growth of wall time from {pts[0][0]} to {pts[-1][0]} patches: n^{k:.2f}")
-PY
+fit_growth "$tmp/rows" 3 4 0
