@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -103,35 +104,12 @@ bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32
 
 void Occlusion::visibleFrom(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore,
                             bool* visible) const {
-  if (!impl_->packets) {
-    for (size_t k = 0; k < to.size(); ++k) visible[k] = this->visible(from, to[k], ignore);
-    return;
-  }
-  FilterContext fc{{}, ignore, &passes_};
-  rtcInitIntersectContext(&fc.context);
-  fc.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  if (!ignore.empty() || passes_) fc.context.filter = skipIgnored;
-  for (size_t first = 0; first < to.size(); first += 8) {
-    alignas(32) RTCRay8 ray{};
-    alignas(32) int valid[8] = {};
-    const size_t count = std::min<size_t>(8, to.size() - first);
-    for (size_t k = 0; k < count; ++k) {
-      const Vec3 d = to[first + k] - from;
-      const double dist = length(d);
-      if (dist <= 2 * epsilon_) {
-        visible[first + k] = true;
-        continue;
-      }
-      valid[k] = -1;
-      ray.org_x[k] = float(from.x); ray.org_y[k] = float(from.y); ray.org_z[k] = float(from.z);
-      ray.dir_x[k] = float(d.x / dist); ray.dir_y[k] = float(d.y / dist); ray.dir_z[k] = float(d.z / dist);
-      ray.tnear[k] = float(epsilon_);
-      ray.tfar[k] = float(dist - epsilon_);
-      ray.mask[k] = 0xFFFFFFFF;
-    }
-    rtcOccluded8(valid, impl_->scene, &fc.context, &ray);
-    for (size_t k = 0; k < count; ++k)
-      if (valid[k]) visible[first + k] = ray.tfar[k] >= 0;
+  // Segments sharing their origin and ignore list, handed to visibleEach 16 at a time.
+  std::array<Segment, 16> segments;
+  for (size_t first = 0; first < to.size(); first += segments.size()) {
+    const size_t count = std::min(segments.size(), to.size() - first);
+    for (size_t k = 0; k < count; ++k) segments[k] = {from, to[first + k], ignore};
+    visibleEach(std::span(segments.data(), count), visible + first);
   }
 }
 
