@@ -185,7 +185,7 @@ constexpr size_t kBytesPerEntry = sizeof(uint32_t) + sizeof(double);
 
 // Builds the rows in parallel and keeps them if their estimated size (from a sample of rows)
 // fits the budget.
-void storeIfItFits(Transport& t, const RadiosityOptions& options, size_t& entries) {
+void storeIfItFits(Transport& t, const RadiosityOptions& options, double progressFrom, size_t& entries) {
   const size_t sampleStep = std::max<size_t>(1, t.rows / 64);
   size_t sampled = 0, sampleRows = 0;
   Row row;
@@ -200,7 +200,7 @@ void storeIfItFits(Transport& t, const RadiosityOptions& options, size_t& entrie
     return;
   }
   std::vector<Row> rows(t.rows);
-  Ticker ticker(options.progress, t.rows, 0.0, 0.8);
+  Ticker ticker(options.progress, t.rows, progressFrom, 0.8);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, t.rows, 16), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i) {
       t.build(i, rows[i]);
@@ -901,15 +901,13 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
 // clusters as n · w |w · Σ A n| / (π |w|⁴) per vertex, w from the vertex to the cluster's centroid.
 std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
                                              const Closure& closure, const ReceiverGroups& groups, double accuracy,
-                                             size_t& rays) {
+                                             Ticker& ticker, size_t& rays) {
   const size_t nv = mesh.positions.size();
   std::vector<uint32_t> front;  // a double-sided surface covers once
   for (size_t p = 0; p < mesh.patches.size(); ++p)
     if (!mesh.patches[p].backSide) front.push_back(uint32_t(p));
   const ClusterTree tree = patchTree(mesh, front, closure);
   std::vector<double> covered(nv, 0.0);
-  const std::function<void(double)> none;
-  Ticker ticker(none, nv, 0, 0);
   const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy};
   std::vector<double> nodeError;  // the cover pass's own estimate is not reported
   const auto links = walkPairs(
@@ -942,7 +940,7 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
 // The hierarchical transport: the walk in transport mode over every patch, exact kernels for the
 // (vertex, patch) pairs (addPatchKernel), links stored per receiver group; then closure.
 Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
-                                   const Receivers& recv, Closure& closure, const ReceiverGroups& groups) {
+                                   double progressFrom, const Receivers& recv, Closure& closure, const ReceiverGroups& groups) {
   Hierarchical h;
   const size_t nv = mesh.positions.size(), np = mesh.patches.size();
   std::vector<uint32_t> all(np);
@@ -961,7 +959,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = options.kernelTolerance;
   std::vector<Row> near(nv);
-  Ticker ticker(options.progress, nv, 0.0, 0.8);
+  Ticker ticker(options.progress, nv, progressFrom, 0.8);
   const WalkSetup setup{mesh, occlusion, recv, groups, h.source, all, false, options.accuracy};
   std::vector<double> nodeError;
   auto links = walkPairs(
@@ -1062,7 +1060,7 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
 // The part of each receiver's projected solid angle that no surface covers, front or back: what a
 // uniform sky lights. Two-sided factors of every patch, times their visible fraction.
 std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
-                                         const std::vector<bool>& enclosed) {
+                                         const std::vector<bool>& enclosed, Ticker& ticker) {
   std::vector<double> sky(mesh.positions.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -1073,6 +1071,7 @@ std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion&
       for (size_t source = 0; source < mesh.patches.size(); ++source) covered += skyCover(mesh, occlusion, recv, i, source, ignore);
       sky[i] = std::max(0.0, 1 - covered);
     }
+    ticker.add(range.size());
   });
   return sky;
 }
@@ -1267,9 +1266,13 @@ std::vector<Vec3> withDirectLight(std::vector<Vec3> source, const std::vector<Ve
 }
 
 // The source term: emission plus, with a sky, the reflected sky light ρ · (uncovered fraction) · sky.
+bool hasSky(const RadiosityOptions& options) { return options.sky.x > 0 || options.sky.y > 0 || options.sky.z > 0; }
+// The share of the progress that the sky pass takes, before the transport's.
+constexpr double kSkyProgress = 0.3;
+
 std::vector<Vec3> withSky(const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
                           const RadiosityOptions& options, const std::function<std::vector<double>()>& fractions) {
-  if (!(options.sky.x > 0 || options.sky.y > 0 || options.sky.z > 0)) return emission;
+  if (!hasSky(options)) return emission;
   const std::vector<double> sky = fractions();
   std::vector<Vec3> source = emission;
   for (size_t i = 0; i < source.size(); ++i)
@@ -1320,12 +1323,16 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     const bool hierarchical = options.transport == TransportMode::kHierarchical;
     ReceiverGroups groups;
     if (hierarchical) groups = receiverGroups(mesh, *recv, *closure, gatheringVertices(mesh, *recv, *closure, occlusion.epsilon()));
+    // With a sky, its pass takes the first part of the progress (it is one more walk, or for the
+    // exact transport one more pass over every pair).
+    const double transportFrom = hasSky(options) ? kSkyProgress : 0;
+    Ticker skyTicker(options.progress, mesh.positions.size(), 0, transportFrom);
     const std::vector<Vec3> source = withDirectLight(
         withSky(emission, reflectance, options,
                 [&] {
                   return hierarchical ? hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, options.accuracy * kSkyAccuracy,
-                                                                 solution.clusterRays)
-                                      : bilinearSkyFractions(mesh, occlusion, *recv, closure->rows);
+                                                                 skyTicker, solution.clusterRays)
+                                      : bilinearSkyFractions(mesh, occlusion, *recv, closure->rows, skyTicker);
                 }),
         reflectance, bilinearDirectLight(scene, mesh, occlusion, *recv));
     Transport K;
@@ -1333,7 +1340,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     Gather gather = exactGather(K);
     if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
       if (hierarchical) {
-        H = hierarchicalTransport(mesh, occlusion, options, *recv, *closure, groups);
+        H = hierarchicalTransport(mesh, occlusion, options, transportFrom, *recv, *closure, groups);
         gather = hierarchicalGather(H, mesh);
         solution.matrixEntries = H.value.size();
         solution.farLinks = H.links.size();
@@ -1344,7 +1351,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       } else {
         K = bilinearTransport(mesh, occlusion, options, recv, closure);
         applyClosure(K, closure);
-        storeIfItFits(K, options, solution.matrixEntries);
+        storeIfItFits(K, options, transportFrom, solution.matrixEntries);
         solution.matrixFree = !K.stored();
         solution.transportBytes = K.stored() ? solution.matrixEntries * kBytesPerEntry : 0;
       }
@@ -1382,7 +1389,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     if (anyLight(source)) {
       F = constantTransport(mesh, occlusion, options, closure);
       applyClosure(F, closure);
-      storeIfItFits(F, options, solution.matrixEntries);
+      storeIfItFits(F, options, 0, solution.matrixEntries);
       solution.transportBytes = F.stored() ? solution.matrixEntries * kBytesPerEntry : 0;
       solution.matrixFree = !F.stored();
     }

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <cmath>
@@ -1230,6 +1231,35 @@ TEST(Progress, JsonLinesNameEachStage) {
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* stage : {"import", "tessellate", "solve", "export"})
     EXPECT_NE(r.err.find(std::string("{\"progress\":0.0,\"stage\":\"") + stage + "\"}"), std::string::npos) << r.err;
+}
+
+TEST(Progress, SkyPassReportsBeforeTheTransport) {
+  // The sky pass is a walk of its own (on the whole 2CylinderEngine, minutes): it reports in the
+  // first part of the solve's progress, the transport after it, and neither goes back.
+  auto solveProgress = [](const std::vector<std::string>& extra) {
+    std::vector<std::string> args{"bake", (kTestData / "scenes" / "two_plates.gltf").string(), "-o",
+                                  (tempDir() / "sky_progress.glb").string(), "--subdivide", "24", "--progress", "json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const RunResult r = radbake(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    std::vector<double> solve;
+    std::istringstream lines(r.err);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.empty() || line[0] != '{') continue;  // a warning
+      const json j = json::parse(line);
+      if (j["stage"] == "solve" && j["progress"].get<double>() > 0 && j["progress"].get<double>() < 0.8)
+        solve.push_back(j["progress"].get<double>());
+    }
+    return solve;
+  };
+  const std::vector<double> dark = solveProgress({}), sky = solveProgress({"--sky", "1"});
+  EXPECT_TRUE(std::is_sorted(sky.begin(), sky.end()));
+  ASSERT_FALSE(dark.empty());
+  // Without a sky the transport's reports span the whole range; with one, the sky pass's come first.
+  EXPECT_LT(dark.front(), 0.3);
+  EXPECT_GT(sky.size(), dark.size());
+  EXPECT_TRUE(std::any_of(sky.begin(), sky.end(), [](double f) { return f <= 0.3; }));
+  EXPECT_TRUE(std::any_of(sky.begin(), sky.end(), [](double f) { return f > 0.3; }));
 }
 
 }  // namespace
