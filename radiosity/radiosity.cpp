@@ -789,9 +789,10 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             const uint32_t count = g.count * perReceiver;
             // Rays k / per receiver to a hashed patch, for k = index(j), j < n, traced in batches;
             // with `stopWhenMixed` it stops at the first batch that shows some rays through and
-            // some blocked (the pair is then opened whatever the rest say). Returns those through.
-            auto trace = [&](uint32_t n, uint32_t per, auto index, bool stopWhenMixed) {
-              uint32_t through = 0, asked = 0;
+            // some blocked, counting `prior` rays already traced (the pair is then opened whatever
+            // the rest say). Returns those through and those asked, `prior` included.
+            auto trace = [&](uint32_t n, uint32_t per, auto index, bool stopWhenMixed, std::pair<uint32_t, uint32_t> prior) {
+              auto [through, asked] = prior;
               for (uint32_t first = 0; first < n; first += kRayBatch) {
                 segments.clear();
                 segmentVertex.clear();
@@ -817,7 +818,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                   through += seenBuffer[e] && !sight.crossesOwn(segments[e].to);
                 }
                 shot += segments.size();
-                asked = last;
+                asked = prior.second + last;
                 if (stopWhenMixed && through > 0 && through < asked) break;
               }
               return std::pair{through, asked};
@@ -825,9 +826,15 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // A few rays spread over the pair first: most pairs that will be opened show it here,
             // before a ray from every receiver is spent on them.
             const uint32_t probes = std::min(count, kClusterRays);
-            auto [seen, asked] = trace(probes, perReceiver, [&](uint32_t k) { return uint32_t((uint64_t(2 * k + 1) * count) / (2 * probes)); }, false);
+            auto probe = [&](uint32_t k) { return uint32_t((uint64_t(2 * k + 1) * count) / (2 * probes)); };
+            auto [seen, asked] = trace(probes, perReceiver, probe, false, {0, 0});
             if (count > probes && (seen == probes || seen == 0)) {  // a link, or hidden: every ray says
-              std::tie(seen, asked) = trace(count, perReceiver, [](uint32_t k) { return k; }, true);
+              // The other rays: the j-th index that is not a probe's (the probes' rise strictly).
+              auto rest = [&](uint32_t j) {
+                for (uint32_t k = 0; k < probes && probe(k) <= j; ++k) ++j;
+                return j;
+              };
+              std::tie(seen, asked) = trace(count - probes, perReceiver, rest, true, {seen, asked});
             }  // else: some probes through and some blocked, the pair is opened
             // Hidden when every receiver's rays are blocked, the same evidence a link needs (it was
             // taken for small pairs only, and large hidden pairs were opened down to them: in the
@@ -842,7 +849,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
               // vertex with the share its own rays see, instead of opened down to single patches
               // at every receiver, which grows as n^1.5 (every receiver × the silhouette's patches).
               if (g.count == 1) {
-                const uint32_t through = trace(kFractionRays, kFractionRays, [](uint32_t k) { return k; }, false).first;
+                const uint32_t through = trace(kFractionRays, kFractionRays, [](uint32_t k) { return k; }, false, {0, 0}).first;
                 if (through == 0) continue;
                 links[gi].push_back({ci, float(through) / kFractionRays});
                 nodeError[gi] += linkError + factor / kFractionRays;  // and the share's sampling
