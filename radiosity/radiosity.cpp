@@ -498,26 +498,34 @@ Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
   return t;
 }
 
+// A source node's vector moment of L per color channel, beside its centroid: the far gather reads
+// both for every link, from one place (they were two scattered reads, the centroid's in a TreeNode).
+struct NodeMoment {
+  Vec3 centroid;
+  std::array<Vec3, 3> m;
+};
+
 // The source clusters' vector moments of L, M_node[c] = Σ_patches n_p Σ_j A_pj L_j[c] (c: the
 // color channel), bottom-up in a fixed order so the sums have the same bits for any thread count.
-std::vector<std::array<Vec3, 3>> clusterMoments(const Hierarchical& h, const PatchMesh& mesh, const std::vector<Vec3>& L) {
+std::vector<NodeMoment> clusterMoments(const Hierarchical& h, const PatchMesh& mesh, const std::vector<Vec3>& L) {
   const ClusterTree& tree = h.source;
-  std::vector<std::array<Vec3, 3>> moment(tree.nodes.size());
+  std::vector<NodeMoment> moment(tree.nodes.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tree.nodes.size(), 1024), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k != range.end(); ++k) {
       const TreeNode& node = tree.nodes[k];
+      moment[k].centroid = node.centroid;
       if (node.count != 1) continue;
       const uint32_t p = tree.order[node.first];
       const Patch& patch = mesh.patches[p];
       Vec3 s{};
       for (int j = 0; j < 4; ++j) s += L[patch.v[j]] * h.shapeAreas[p][j];
-      moment[k] = {patch.normal * s.x, patch.normal * s.y, patch.normal * s.z};
+      moment[k].m = {patch.normal * s.x, patch.normal * s.y, patch.normal * s.z};
     }
   });
   for (size_t k = tree.nodes.size(); k-- > 0;) {  // children come after their parent
     const TreeNode& node = tree.nodes[k];
     if (node.count == 1) continue;
-    for (int c = 0; c < 3; ++c) moment[k][c] = moment[node.child[0]][c] + moment[node.child[1]][c];
+    for (int c = 0; c < 3; ++c) moment[k].m[c] = moment[node.child[0]].m[c] + moment[node.child[1]].m[c];
   }
   return moment;
 }
@@ -531,14 +539,16 @@ struct LocalField {
 // What each vertex gathers through the links, n_i · Φ(p_i) per channel: each group's field from its
 // links (in parallel), then pushed down the receiver tree (parent before child), re-centred on
 // each child's centroid: Φ_child += Φ_G + J_G (c_child − c_G), J_child += J_G.
-std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<std::array<Vec3, 3>>& moment) {
+std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<NodeMoment>& moment) {
   const ClusterTree& R = h.receiver;
   std::vector<LocalField> field(R.nodes.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, R.nodes.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k != range.end(); ++k) {
       const bool leaf = R.nodes[k].count == 1;  // a leaf's J is never pushed anywhere
+      const Vec3 at = R.nodes[k].centroid;
       for (size_t e = h.linkStart[k]; e < h.linkStart[k + 1]; ++e) {
-        const Vec3 w = h.source.nodes[h.links[e].source].centroid - R.nodes[k].centroid;
+        const NodeMoment& source = moment[h.links[e].source];
+        const Vec3 w = source.centroid - at;
         const double d2 = dot(w, w), s = h.links[e].visible / (kPi * d2 * d2);
         // ∂Φ/∂p = (1/π) [(w·M) (I − 4 w wᵀ / |w|²) + w Mᵀ] / |w|⁴: the bracket's first matrix is
         // the same for the three channels.
@@ -547,7 +557,7 @@ std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<std::array<
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b) P[3 * a + b] = (a == b ? 1.0 : 0.0) - 4 * w[a] * w[b] / d2;
         for (int c = 0; c < 3; ++c) {
-          const Vec3& m = moment[h.links[e].source][c];
+          const Vec3& m = source.m[c];
           const double swm = s * dot(w, m);
           field[k].phi[c] += w * -swm;
           if (leaf) continue;
@@ -829,8 +839,11 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             auto probe = [&](uint32_t k) { return uint32_t((uint64_t(2 * k + 1) * count) / (2 * probes)); };
             auto [seen, asked] = trace(probes, perReceiver, probe, false, {0, 0});
             if (count > probes && (seen == probes || seen == 0)) {  // a link, or hidden: every ray says
-              // The other rays: the j-th index that is not a probe's (the probes' rise strictly).
+              // The other rays, in an order spread over the group (j → j · p mod their number, p a
+              // prime above it), so that a shadow over part of the receivers shows in the first
+              // batches: the j-th index that is not a probe's (the probes' rise strictly).
               auto rest = [&](uint32_t j) {
+                j = uint32_t(uint64_t(j) * 2654435761u % (count - probes));
                 for (uint32_t k = 0; k < probes && probe(k) <= j; ++k) ++j;
                 return j;
               };
@@ -1002,8 +1015,9 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   // Closure (as applyClosure does for exact rows): each row's total, near entries plus the far
   // share n_i · Φ of L ≡ 1 (whose moments are Σ A n), scaled to 1 where the rules say.
   const ClusterTree& S = h.source;
-  std::vector<std::array<Vec3, 3>> ones(S.nodes.size());
-  for (size_t k = 0; k < S.nodes.size(); ++k) ones[k] = {S.nodes[k].areaNormal, S.nodes[k].areaNormal, S.nodes[k].areaNormal};
+  std::vector<NodeMoment> ones(S.nodes.size());
+  for (size_t k = 0; k < S.nodes.size(); ++k)
+    ones[k] = {S.nodes[k].centroid, {S.nodes[k].areaNormal, S.nodes[k].areaNormal, S.nodes[k].areaNormal}};
   const std::vector<Vec3> farOne = gatherFar(h, ones);
   for (size_t v = 0; v < nv; ++v) {
     if (h.rowScale[v] == 0) continue;
@@ -1272,11 +1286,11 @@ std::vector<Vec3> withDirectLight(std::vector<Vec3> source, const std::vector<Ve
   return source;
 }
 
-// The source term: emission plus, with a sky, the reflected sky light ρ · (uncovered fraction) · sky.
 bool hasSky(const RadiosityOptions& options) { return options.sky.x > 0 || options.sky.y > 0 || options.sky.z > 0; }
 // The share of the progress that the sky pass takes, before the transport's.
 constexpr double kSkyProgress = 0.3;
 
+// The source term: emission plus, with a sky, the reflected sky light ρ · (uncovered fraction) · sky.
 std::vector<Vec3> withSky(const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
                           const RadiosityOptions& options, const std::function<std::vector<double>()>& fractions) {
   if (!hasSky(options)) return emission;
