@@ -11,7 +11,9 @@
 #include <memory>
 #include <mutex>
 #include <span>
+#include <string>
 #include <tuple>
+#include <utility>
 
 #include "core/core.h"
 #include "radiosity/enclosure.h"
@@ -691,6 +693,22 @@ ClusterTree patchTree(const PatchMesh& mesh, const std::vector<uint32_t>& patche
 // surface. Cover (the sky pass): every patch facing the group or every patch facing away (a
 // surface covers the sky from either side), no closure. `leaf(v, patch)` handles the exact
 // (vertex, patch) pairs; `gathers(v)` says whether vertex v needs anything at all.
+// What the walks keep, against RadiosityOptions::transportMemoryBytes, counted as they go. A near
+// entry costs 16 bytes in its row, about 8 more in the row's spare capacity, and 12 once packed
+// (the rows and the packed form coexist while it is packed): 36. A link costs its 8.
+constexpr size_t kNearEntryBytes = 36;
+struct MemoryBudget {
+  size_t limit = SIZE_MAX;
+  std::atomic<size_t> used{0};
+  void add(size_t bytes) {
+    if (bytes == 0 || limit == SIZE_MAX) return;
+    const size_t now = used.fetch_add(bytes, std::memory_order_relaxed) + bytes;
+    if (now > limit)
+      throw TransportMemoryExceeded("the hierarchical transport needs more memory than its budget of " +
+                                    std::to_string(limit >> 20) + " MiB");
+  }
+};
+
 struct WalkSetup {
   const PatchMesh& mesh;
   const Occlusion& occlusion;
@@ -700,11 +718,12 @@ struct WalkSetup {
   const std::vector<uint32_t>& patchOf;  // source item → mesh patch
   bool cover;
   double accuracy;
+  MemoryBudget& memory;
 };
 
 std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::function<bool(uint32_t)>& gathers,
                                                 std::vector<double>& nodeError,
-                                                const std::function<void(uint32_t, uint32_t, std::vector<uint32_t>&)>& leaf,
+                                                const std::function<size_t(uint32_t, uint32_t, std::vector<uint32_t>&)>& leaf,
                                                 Ticker& ticker, size_t& raysShot) {
   const ClusterTree &R = w.groups.tree, &S = w.source;
   std::vector<std::vector<ClusterLink>> links(R.nodes.size());
@@ -722,7 +741,9 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     size_t shot = 0;
     for (size_t task = range.begin(); task != range.end(); ++task) {
       std::vector<std::pair<uint32_t, uint32_t>> stack{{w.groups.tasks[task], 0}};
+      size_t kept = 0;  // bytes of links and near entries, handed to the budget a MiB at a time
       while (!stack.empty()) {
+        if (kept >= (size_t(1) << 20)) w.memory.add(std::exchange(kept, 0));
         const auto [gi, ci] = stack.back();
         stack.pop_back();
         const TreeNode &g = R.nodes[gi], &c = S.nodes[ci];
@@ -733,7 +754,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           if (!gathers(v)) continue;
           ignore.assign(w.recv.ignored(v).begin(), w.recv.ignored(v).end());
           ignore.push_back(0);
-          leaf(v, w.patchOf[S.order[c.first]], ignore);
+          kept += leaf(v, w.patchOf[S.order[c.first]], ignore);
           continue;
         }
         const Vec3 d = c.centroid - g.centroid;
@@ -855,6 +876,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             if (seen == 0 && asked == count) continue;
             if (seen == count && asked == count) {
               links[gi].push_back({ci});
+              kept += sizeof(ClusterLink);
               nodeError[gi] += linkError + (over.low >= -over.rounding ? 0 : horizonError);
               split = false;
             } else if (seen > 0 && factor < kFaintFactor) {
@@ -865,6 +887,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 const uint32_t through = trace(kFractionRays, kFractionRays, [](uint32_t k) { return k; }, false, {0, 0}).first;
                 if (through == 0) continue;
                 links[gi].push_back({ci, float(through) / kFractionRays});
+                kept += sizeof(ClusterLink);
                 nodeError[gi] += linkError + factor / kFractionRays;  // and the share's sampling
                 split = false;
               } else {
@@ -879,6 +902,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         for (int k = 1; k >= 0; --k)
           stack.push_back(openReceiver ? std::pair{uint32_t(g.child[k]), ci} : std::pair{gi, uint32_t(c.child[k])});
       }
+      w.memory.add(kept);
       ticker.add(R.nodes[w.groups.tasks[task]].count);
     }
     rays += shot;
@@ -921,18 +945,21 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
 // clusters as n · w |w · Σ A n| / (π |w|⁴) per vertex, w from the vertex to the cluster's centroid.
 std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
                                              const Closure& closure, const ReceiverGroups& groups, double accuracy,
-                                             Ticker& ticker, size_t& rays) {
+                                             MemoryBudget& memory, Ticker& ticker, size_t& rays) {
   const size_t nv = mesh.positions.size();
   std::vector<uint32_t> front;  // a double-sided surface covers once
   for (size_t p = 0; p < mesh.patches.size(); ++p)
     if (!mesh.patches[p].backSide) front.push_back(uint32_t(p));
   const ClusterTree tree = patchTree(mesh, front, closure);
   std::vector<double> covered(nv, 0.0);
-  const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy};
+  const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy, memory};
   std::vector<double> nodeError;  // the cover pass's own estimate is not reported
   const auto links = walkPairs(
       setup, [&](uint32_t v) { return !closure.rows[v]; }, nodeError,
-      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) { covered[v] += skyCover(mesh, occlusion, recv, v, patch, ignore); },
+      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
+        covered[v] += skyCover(mesh, occlusion, recv, v, patch, ignore);
+        return size_t(0);
+      },
       ticker, rays);
   // Each vertex adds the links of its groups, from its leaf to the root.
   const std::vector<int32_t>& parent = groups.parent;
@@ -980,12 +1007,16 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   kernelOptions.relativeTolerance = options.kernelTolerance;
   std::vector<Row> near(nv);
   Ticker ticker(options.progress, nv, progressFrom, 0.8);
-  const WalkSetup setup{mesh, occlusion, recv, groups, h.source, all, false, options.accuracy};
+  MemoryBudget memory;
+  memory.limit = options.transportMemoryBytes;
+  const WalkSetup setup{mesh, occlusion, recv, groups, h.source, all, false, options.accuracy, memory};
   std::vector<double> nodeError;
   auto links = walkPairs(
       setup, [&](uint32_t v) { return h.rowScale[v] != 0; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
+        const size_t before = near[v].size();
         addPatchKernel(mesh, occlusion, recv, kernelOptions, v, patch, ignore, near[v]);
+        return (near[v].size() - before) * kNearEntryBytes;
       },
       ticker, h.rays);
 
@@ -1351,8 +1382,10 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     const std::vector<Vec3> source = withDirectLight(
         withSky(emission, reflectance, options,
                 [&] {
+                  MemoryBudget memory;  // the sky pass keeps its links until its fractions are summed
+                  memory.limit = options.transportMemoryBytes;
                   return hierarchical ? hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, options.accuracy * kSkyAccuracy,
-                                                                 skyTicker, solution.clusterRays)
+                                                                 memory, skyTicker, solution.clusterRays)
                                       : bilinearSkyFractions(mesh, occlusion, *recv, closure->rows, skyTicker);
                 }),
         reflectance, bilinearDirectLight(scene, mesh, occlusion, *recv));

@@ -6,7 +6,9 @@
 // patch. Constant method: one value per patch, the classic baseline.
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,9 @@ struct RadiosityOptions {
   // Past this size the transport rows are not stored but recomputed in every iteration
   // (matrix-free: memory stays O(n), time grows by the iteration count).
   size_t matrixMemoryBytes = size_t(2) << 30;
+  // The hierarchical transport has no matrix-free form: past this many bytes of near entries and
+  // links, solveRadiosity stops building it and throws TransportMemoryExceeded.
+  size_t transportMemoryBytes = SIZE_MAX;
   std::function<void(double fraction)> progress;  // serialized calls from worker threads; may be empty
 };
 
@@ -65,6 +70,12 @@ struct Solution {
   // discretization error).
   double emittedPower = 0;
   double absorbedPower = 0;
+};
+
+// What solveRadiosity throws when the hierarchical transport outgrows options.transportMemoryBytes
+// (what() says how far it got).
+struct TransportMemoryExceeded : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options = {});

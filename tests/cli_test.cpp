@@ -1233,6 +1233,28 @@ TEST(Progress, JsonLinesNameEachStage) {
     EXPECT_NE(r.err.find(std::string("{\"progress\":0.0,\"stage\":\"") + stage + "\"}"), std::string::npos) << r.err;
 }
 
+TEST(Memory, HierarchicalTransportPastItsBudgetExitsThreeAndWritesNothing) {
+  // The hierarchical transport has no matrix-free fallback: past 3/4 of --max-memory it stops with
+  // exit 3 and one line naming the input (the 1M-triangle room would otherwise meet the kernel's
+  // out-of-memory killer). The same budget bakes a small box.
+  const fs::path in = kTestData / "scenes" / "cornell_box.gltf";
+  const fs::path out = tempDir() / "over_budget.glb", report = tempDir() / "over_budget.json";
+  fs::remove(out);
+  fs::remove(report);
+  const RunResult big = radbake({"bake", in.string(), "-o", out.string(), "--report", report.string(), "--subdivide", "24",
+                                 "--max-memory", "64M", "--progress", "none"});
+  EXPECT_EQ(big.code, 3) << big.err;
+  EXPECT_NE(big.err.find("error: cornell_box.gltf: the hierarchical transport needs more memory than its budget of 48 MiB"),
+            std::string::npos) << big.err;
+  EXPECT_NE(big.err.find("--max-memory"), std::string::npos) << big.err;
+  EXPECT_EQ(std::count(big.err.begin(), big.err.end(), '\n'), 1) << big.err;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(report));
+  const RunResult small = radbake({"bake", in.string(), "-o", out.string(), "--subdivide", "8", "--max-memory", "64M", "-q"});
+  EXPECT_EQ(small.code, 0) << small.err;
+  EXPECT_TRUE(fs::exists(out));
+}
+
 TEST(Progress, SkyPassReportsBeforeTheTransport) {
   // The sky pass is a walk of its own (on the whole 2CylinderEngine, minutes): it reports in the
   // first part of the solve's progress, the transport after it, and neither goes back.

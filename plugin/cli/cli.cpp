@@ -293,7 +293,17 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   radiosityOptions.progress = [&](double f) { progress.report(f); };
   // The stored transport may take a quarter of the budget; past it the solve runs matrix-free.
   radiosityOptions.matrixMemoryBytes = std::min<uint64_t>(radiosityOptions.matrixMemoryBytes, maxMemory / 4);
-  const Solution solution = solveRadiosity(scene, mesh, radiosityOptions);
+  // The hierarchical transport has no matrix-free form: it may take three quarters (the rest is for
+  // the mesh, Embree's BVH and the output), and a bake past that stops with exit 3 instead of
+  // meeting the kernel's out-of-memory killer.
+  radiosityOptions.transportMemoryBytes = maxMemory / 4 * 3;
+  Solution solution;
+  try {
+    solution = solveRadiosity(scene, mesh, radiosityOptions);
+  } catch (const TransportMemoryExceeded& e) {
+    throw Error(ExitCode::kUnsupported, std::filesystem::path(options.input).filename().string() + ": " + e.what() +
+                                            " (3/4 of --max-memory); raise --max-memory or --accuracy, or bake fewer patches");
+  }
   const auto t3 = Clock::now();
   if (!solution.converged) {
     std::ostringstream message;
@@ -444,7 +454,7 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
     cmd->add_flag("--allow-outside-paths", o.allowOutsidePaths,
                   "read buffers and images outside the asset's folder (absolute paths, \"..\", links leading out)");
     cmd->add_option("--max-memory", maxMemory,
-                    "memory budget, e.g. 2G or 512M (default: the machine's memory); inputs estimated past it exit 3")
+                    "memory budget, e.g. 2G or 512M (default: the machine's memory); inputs estimated past it, and a hierarchical transport growing past 3/4 of it, exit 3")
         ->check(CLI::Validator(
             [](std::string& text) {
               const auto bytes = parseByteSize(text);
