@@ -688,11 +688,6 @@ ClusterTree patchTree(const PatchMesh& mesh, const std::vector<uint32_t>& patche
   return buildClusterTree(items);
 }
 
-// The walk of (receiver group, source cluster) pairs (docs/radiosity.md "Hierarchical transport").
-// Transport: a link needs every patch facing every receiver, and light never crosses a closed
-// surface. Cover (the sky pass): every patch facing the group or every patch facing away (a
-// surface covers the sky from either side), no closure. `leaf(v, patch)` handles the exact
-// (vertex, patch) pairs; `gathers(v)` says whether vertex v needs anything at all.
 // What the walks keep, against RadiosityOptions::transportMemoryBytes, counted as they go. A near
 // entry costs 16 bytes in its row, about 8 more in the row's spare capacity, and 12 once packed
 // (the rows and the packed form coexist while it is packed): 36. A link costs its 8.
@@ -709,6 +704,12 @@ struct MemoryBudget {
   }
 };
 
+// The walk of (receiver group, source cluster) pairs (docs/radiosity.md "Hierarchical transport").
+// Transport: a link needs every patch facing every receiver, and light never crosses a closed
+// surface. Cover (the sky pass): every patch facing the group or every patch facing away (a
+// surface covers the sky from either side), no closure. `leaf(v, patch)` handles the exact
+// (vertex, patch) pairs and returns the bytes it kept (for the memory budget); `gathers(v)` says
+// whether vertex v needs anything at all.
 struct WalkSetup {
   const PatchMesh& mesh;
   const Occlusion& occlusion;

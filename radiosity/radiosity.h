@@ -73,7 +73,7 @@ struct Solution {
 };
 
 // What solveRadiosity throws when the hierarchical transport outgrows options.transportMemoryBytes
-// (what() says how far it got).
+// (what() names the budget in MiB).
 struct TransportMemoryExceeded : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
