@@ -53,6 +53,7 @@ struct Solution {
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
   size_t farLinks = 0;           // hierarchical: links from receivers to whole source clusters
   size_t clusterRays = 0;        // hierarchical: visibility rays shot at clusters
+  size_t nearRays = 0;           // hierarchical: visibility rays of the exact (vertex, patch) pairs
   size_t clusters = 0;           // hierarchical: nodes of the source and receiver trees
   // hierarchical: the largest sum, over one vertex's far links, of their error estimates (a share
   // of its hemisphere; each link is made below --accuracy)

@@ -950,8 +950,11 @@ TEST(Cli, TransportDefaultsToHierarchicalForBilinear) {
       EXPECT_GT(solver["farLinks"].get<double>(), 0) << solver;
       EXPECT_GT(solver["linkErrorBound"].get<double>(), 0) << solver;
       EXPECT_LT(solver["linkErrorBound"].get<double>(), 1e-3 * solver["farLinks"].get<double>()) << solver;
+      // the blocks' near (vertex, patch) pairs trace rays, counted apart from the cluster rays
+      EXPECT_GT(solver["nearRays"].get<double>(), 0) << solver;
     } else {
       EXPECT_EQ(solver["linkErrorBound"].get<double>(), 0) << solver;
+      EXPECT_EQ(solver["nearRays"].get<double>(), 0) << solver;
     }
     return solver["transport"].get<std::string>();
   };
