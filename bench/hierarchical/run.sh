@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The Cornell box with the default (hierarchical) transport for N in ARGS (default 7 10 14 20 28 40
-# 56 65, i.e. 1.2k to 101k patches): wall time, peak memory, near entries, far links, cluster rays;
+# 56 65, i.e. 1.2k to 101k patches): wall time, peak memory, near entries, far links, cluster rays,
+# the (vertex, patch) pairs' rays;
 # for N up to EXACT_MAX (default 20) also the exact transport and the vertex difference (RMS and
 # largest, % of the mean radiance). Then the exponent of time against patches, fitted from 9k
 # patches up (issue 16 asks for <= 1.2). A Markdown table on stdout (docs/results.md). The whole
@@ -13,7 +14,7 @@ bin=build/plugin/cli/radbake
 levels=("$@"); [ ${#levels[@]} -gt 0 ] || levels=(7 10 14 20 28 40 56 65)
 exactMax=${EXACT_MAX:-20}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-table_start N patches "hierarchical s" MiB "near entries" "far links" "cluster rays" "exact s" "exact MiB" speed-up RMS largest
+table_start N patches "hierarchical s" MiB "near entries" "far links" "cluster rays" "pair rays" "exact s" "exact MiB" speed-up RMS largest
 for n in "${levels[@]}"; do
   transports=(hierarchical)
   [ "$n" -le "$exactMax" ] && transports+=(exact)
@@ -30,7 +31,7 @@ ht, hm = open(f"{tmp}/hierarchical.time").read().split()
 r = json.load(open(f"{tmp}/hierarchical.json"))
 s = r["solver"]
 row = (f"| {n} | {r['counts']['patches']} | {float(ht):.1f} | {int(hm) // 1024} | {s['matrixEntries']} | {s['farLinks']} | "
-       f"{s['clusterRays']} |")
+       f"{s['clusterRays']} | {s['nearRays']} |")
 if diff:
     et, em = open(f"{tmp}/exact.time").read().split()
     rms = diff.split("rms ")[1].split()[0]
