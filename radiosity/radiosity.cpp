@@ -398,9 +398,10 @@ struct Sight {
   bool crossesOwn(const Vec3& to) const {
     for (uint32_t k : own) {
       const Patch& patch = mesh.patches[k];
-      const auto q = corners(mesh, patch);
-      const double da = dot(patch.normal, from - q[0]), db = dot(patch.normal, to - q[0]);
+      const Vec3& q0 = mesh.positions[patch.v[0]];  // the plane first: most rays do not cross it
+      const double da = dot(patch.normal, from - q0), db = dot(patch.normal, to - q0);
       if (!((da > 0 && db < 0) || (da < 0 && db > 0))) continue;
+      const auto q = corners(mesh, patch);
       const Vec3 x = from + (to - from) * (da / (da - db));
       bool inside = true;
       for (int e = 0; e < 4 && inside; ++e)
@@ -939,7 +940,11 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // receiver could each find at most its factor of light (−11% of the Blender room's
             // cluster rays, −16% of the engine part's; errors against exact unchanged).
             if (seen == 0 && factor < kFaintFactor) continue;
-            if (count > probes && (seen == probes || seen == 0)) {  // a link, or hidden: every ray says
+            // Likewise a faint pair whose probes all get through is linked: a receiver whose own ray
+            // would have been blocked gains at most its factor (cluster rays −3% at Cornell N = 20,
+            // −7% on the engine part; errors against exact unchanged).
+            if (seen == probes && factor < kFaintFactor) std::tie(seen, asked) = std::pair{count, count};
+            if (count > probes && asked < count && (seen == probes || seen == 0)) {  // a link, or hidden: every ray says
               // The other rays, in an order spread over the group (j → j · p mod their number, p a
               // prime above it), so that a shadow over part of the receivers shows in the first
               // batches: the j-th index that is not a probe's (the probes' rise strictly).
