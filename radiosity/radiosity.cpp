@@ -460,8 +460,8 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
 // visibleFraction, or for a faint patch (its factor from `from`, about A/(π d²) with d the distance
 // to its bounding sphere, below `faint`, and d at least twice its radius) one ray to its centre:
 // all or nothing. A faint pair decided wrong costs at most its factor; the five probes and the
-// 4×4 grid were most of the hierarchical transport's rays (in the Blender room, 3.9M of the 8.1M
-// (vertex, patch) pairs are hidden, 5 rays each, against 8.0M cluster rays). Counts its rays.
+// 4×4 grid were most of the hierarchical transport's rays (in the level-0 Blender room, 3.9M of the
+// 8.1M (vertex, patch) pairs are hidden, 5 rays each, against 8.0M cluster rays). Counts its rays.
 std::array<double, 4> pairVisibility(const Sight& sight, const Vec3& n, const std::array<Vec3, 4>& q, const Vec3& qNormal,
                                      double area, double faint, size_t& rays) {
   if (faint > 0) {
@@ -639,11 +639,11 @@ constexpr double kHorizonShare = 0.1;
 // A partly hidden cluster fainter than this (its factor, about A/(π d²)) is linked to each vertex
 // with the share of kFractionRays rays that get through, instead of being opened further.
 constexpr double kFaintFactor = 1e-4;
+constexpr uint32_t kFractionRays = 8;
 // The near (vertex, patch) kernels are integrated to this share of --accuracy (relative), and a
 // pair whose factor is below this share of it gets one visibility ray (pairVisibility).
 constexpr double kNearKernelShare = 0.1;
 constexpr double kFaintPairShare = 0.1;
-constexpr uint32_t kFractionRays = 8;
 // How much a receiver group's normal spread (the sine of its cone) raises a link's error estimate.
 constexpr double kCurvedGroup = 15;
 // No link spans less than twice the two groups' radii, whatever its error estimate says.
