@@ -37,7 +37,10 @@ class Ticker {
     const size_t before = done_.fetch_add(n);
     if ((before + n) * 100 / total_ != before * 100 / total_) {
       std::lock_guard lock(mutex_);
-      progress_(from_ + (to_ - from_) * double(before + n) / double(total_));
+      // The count as it is now, read under the lock: two threads crossing a percent together could
+      // otherwise report in the opposite order, and the progress would go back (seen in
+      // Progress.SkyPassReportsBeforeTheTransport under a parallel ctest).
+      progress_(from_ + (to_ - from_) * double(done_.load()) / double(total_));
     }
   }
 
