@@ -787,6 +787,19 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     std::vector<uint32_t> segmentVertex;
     std::array<bool, kRayBatch> seenBuffer;
     size_t shot = 0;
+    // Traces `segments` (each from receiver segmentVertex[e]) as one batch and counts those that get
+    // through: Embree's answer and, in double precision, the receiver's own patches.
+    auto traceBatch = [&] {
+      w.occlusion.visibleEach(segments, seenBuffer.data());
+      shot += segments.size();
+      uint32_t through = 0;
+      for (size_t e = 0; e < segments.size(); ++e) {
+        const uint32_t v = segmentVertex[e];
+        const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], {}, w.recv.own(v)};
+        through += seenBuffer[e] && !sight.crossesOwn(segments[e].to);
+      }
+      return through;
+    };
     // Whether every receiver of g sees nothing of c's patches: a ray from each receiver to each
     // patch centre that could send it light (facing it, above its horizon), all blocked. A few
     // rays spread over the pairs go first, then the rest in batches, until one gets through.
@@ -807,12 +820,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           segments.push_back({w.recv.origin[v], to, w.recv.ignored(v)});
           segmentVertex.push_back(v);
         }
-        w.occlusion.visibleEach(segments, seenBuffer.data());
-        shot += segments.size();
-        for (size_t e = 0; e < segments.size(); ++e) {
-          const Sight sight{w.occlusion, w.mesh, w.recv.origin[segmentVertex[e]], {}, w.recv.own(segmentVertex[e])};
-          if (seenBuffer[e] && !sight.crossesOwn(segments[e].to)) return false;
-        }
+        if (traceBatch() > 0) return false;
         first = last;
       }
       return true;
@@ -922,13 +930,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                   segments.push_back({w.recv.origin[v], target, w.recv.ignored(v)});
                   segmentVertex.push_back(v);
                 }
-                w.occlusion.visibleEach(segments, seenBuffer.data());
-                for (size_t e = 0; e < segments.size(); ++e) {
-                  const uint32_t v = segmentVertex[e];
-                  const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], {}, w.recv.own(v)};
-                  through += seenBuffer[e] && !sight.crossesOwn(segments[e].to);
-                }
-                shot += segments.size();
+                through += traceBatch();
                 asked = prior.second + last;
                 if (stopWhenMixed && through > 0 && through < asked) break;
               }
@@ -939,15 +941,12 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             const uint32_t probes = std::min(count, kClusterRays);
             auto probe = [&](uint32_t k) { return uint32_t((uint64_t(2 * k + 1) * count) / (2 * probes)); };
             auto [seen, asked] = trace(probes, perReceiver, probe, false, {0, 0});
-            // A faint pair whose probes are all blocked is taken as hidden: the rays from every other
-            // receiver could each find at most its factor of light (−11% of the Blender room's
-            // cluster rays, −16% of the engine part's; errors against exact unchanged).
-            if (seen == 0 && factor < kFaintFactor) continue;
-            // Likewise a faint pair whose probes all get through is linked: a receiver whose own ray
-            // would have been blocked gains at most its factor (cluster rays −3% at Cornell N = 20,
-            // −7% on the engine part; errors against exact unchanged).
-            if (seen == probes && factor < kFaintFactor) std::tie(seen, asked) = std::pair{count, count};
-            if (count > probes && asked < count && (seen == probes || seen == 0)) {  // a link, or hidden: every ray says
+            // A faint pair is decided by its probes: all blocked, hidden; all through, linked. A
+            // receiver whose own rays would have said otherwise loses or gains at most the pair's
+            // factor (cluster rays, hidden: −11% in the level-0 Blender room, −16% on the engine part;
+            // linked: −3% at Cornell N = 20, −7% on the engine part; errors against exact unchanged).
+            if (factor < kFaintFactor && (seen == 0 || seen == probes)) std::tie(seen, asked) = std::pair{seen == 0 ? 0u : count, count};
+            if (asked < count && (seen == probes || seen == 0)) {  // a link, or hidden: every ray says
               // The other rays, in an order spread over the group (j → j · p mod their number, p a
               // prime above it), so that a shadow over part of the receivers shows in the first
               // batches: the j-th index that is not a probe's (the probes' rise strictly).
