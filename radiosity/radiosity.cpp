@@ -647,8 +647,6 @@ constexpr uint32_t kFractionRays = 8;
 // pair whose factor is below this share of it gets one visibility ray (pairVisibility).
 constexpr double kNearKernelShare = 0.1;
 constexpr double kFaintPairShare = 0.1;
-// How much a receiver group's normal spread (the sine of its cone) raises a link's error estimate.
-constexpr double kCurvedGroup = 15;
 // No link spans less than twice the two groups' radii, whatever its error estimate says.
 constexpr double kMaxRatio = 0.5;
 // Groups of up to this many receivers are tested against a cluster receiver by receiver.
@@ -867,12 +865,12 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         if (!w.cover && facing.high < -facing.rounding) continue;
         const bool mixed = !w.cover && ((g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count));
         const double ratio = dist > 0 ? (g.radius + c.radius) / dist : 1e300;
-        // A curved group's receivers see the cluster at different cosines, some of them near
-        // grazing, where the far field's first-order error in direction (about ratio × F) is not
-        // damped by the cosine: the estimate grows with the group's normal spread (measured on the
-        // Blender room: three Suzanne vertices were 12–16% off exact with 3 ratio² F alone, 6% at
-        // most with four times it for cones wider than 0.2).
-        const double linkError = 3 * ratio * ratio * c.area / (kPi * dist * dist) * (1 + kCurvedGroup * std::min(1.0, g.coneSin));
+        // (Curved groups once had this raised by 1 + 15 sin(cone): three Suzanne vertices of the
+        // Blender room were 12–16% off exact without it. They were off for lack of visibility rays
+        // at links of one to three receivers, not for the estimate: with at least kClusterRays rays
+        // per link they are within 1.4% without the factor, which opened curved groups to twice the
+        // (vertex, patch) pairs.)
+        const double linkError = 3 * ratio * ratio * c.area / (kPi * dist * dist);
         // A flat group (one plane for every receiver) may take a cluster that dips below that plane
         // by `depth`: the dipping part keeps its negative cosine, at most F · depth / d of light,
         // and along a plane's horizon line these shrink as the cube of the distance, so they stay
@@ -893,7 +891,13 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           // Facing by the normal cones, or by the group's box over the cluster's patches' planes
           // (which also passes a floor group and a wall cluster meeting at a corner).
           const bool away = beta - alpha - gamma >= kPi / 2 || facing.high <= facing.rounding;
-          const bool toward = alpha + beta + gamma < kPi / 2 || facing.low >= -facing.rounding;
+          // A cluster whose patches turn away from some receivers by a little (the terminator of a
+          // curved object) is linked like one facing them, when the backs' negative cosines, at most
+          // F · depth / d of light as under a flat group's horizon, stay below the same share of
+          // --accuracy; their centres are not asked for visibility (`sends`).
+          const double backError = c.area / (kPi * dist * dist) * std::max(0.0, -facing.low) / dist;
+          const bool turning = !w.cover && facing.high > facing.rounding && backError < w.accuracy * kHorizonShare;
+          const bool toward = alpha + beta + gamma < kPi / 2 || facing.low >= -facing.rounding || turning;
           if (away && !w.cover) continue;  // every patch shows the group its back
           if (toward || away) {
             // Rays from every receiver of the group, each to a patch of the cluster (spread over
@@ -904,7 +908,11 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // Cornell N = 20 for 2.57% largest error instead of 2.75%): a wrong answer costs at most
             // that much light, so faint links get one ray and bright ones kClusterRays.
             const double factor = std::abs(dot(g.axis, d)) * std::abs(dot(d, c.areaNormal)) / (kPi * dist * dist * dist * dist);
-            const uint32_t perReceiver = std::clamp<uint32_t>(uint32_t(std::ceil(factor / kFactorPerRay)), 1, kClusterRays);
+            // And a link asks at least kClusterRays rays in all: a link of one vertex decided by one
+            // ray let light through partly hidden clusters (Suzanne vertices of the Blender room up
+            // to 5% too bright once groups opened to their vertices at horizons, below).
+            const uint32_t perReceiver = std::max((kClusterRays + g.count - 1) / g.count,
+                                                  std::clamp<uint32_t>(uint32_t(std::ceil(factor / kFactorPerRay)), 1, kClusterRays));
             const uint32_t count = g.count * perReceiver;
             // Rays k / per receiver to a hashed patch, for k = index(j), j < n, traced in batches;
             // with `stopWhenMixed` it stops at the first batch that shows some rays through and
@@ -919,11 +927,23 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 for (uint32_t j = first; j < last; ++j) {
                   const uint32_t k = index(j);
                   const uint32_t v = R.order[g.first + k / per];
-                  const uint32_t item = S.order[c.first + uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count)];
-                  const Vec3 target = centre[item] + w.mesh.patches[w.patchOf[item]].normal * (away ? -lift : lift);
-                  // A patch dipping under a flat group's plane (linked by horizonError): its centre
-                  // below the plane sends no light and is not asked.
-                  if (flat && dot(w.recv.normal[v], target - w.mesh.positions[v]) <= 0) {
+                  const uint32_t start = uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count);
+                  uint32_t item = S.order[c.first + start];
+                  Vec3 target;
+                  // A patch dipping under a flat group's plane (linked by horizonError) or turned
+                  // away from v (linked by backError) sends v no light: the next patch that does is
+                  // asked instead, and if there is none the ray counts as through.
+                  auto sends = [&] {
+                    target = centre[item] + w.mesh.patches[w.patchOf[item]].normal * (away ? -lift : lift);
+                    return (!flat || dot(w.recv.normal[v], target - w.mesh.positions[v]) > 0) &&
+                           (!turning || dot(w.mesh.patches[w.patchOf[item]].normal, w.recv.origin[v] - centre[item]) > 0);
+                  };
+                  bool found = sends();
+                  for (uint32_t step = 1; step < c.count && !found; ++step) {
+                    item = S.order[c.first + (start + step) % c.count];
+                    found = sends();
+                  }
+                  if (!found) {
                     ++through;
                     continue;
                   }
@@ -1002,8 +1022,15 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             continue;
           }
         }
-        // Open the larger group (a leaf cannot be opened).
-        const bool openReceiver = byVertex || c.count == 1 || (g.count > 1 && g.radius >= c.radius);
+        // Open the larger group (a leaf cannot be opened); but a pair that fails only by straddling
+        // some receivers' horizons opens the group while the wedge its receivers' planes sweep
+        // at the cluster (d sin(cone) + r_g) is wider than the cluster: opening the cluster instead
+        // walked each curved vertex down to the single patches along its horizon line, n^1.5
+        // (Blender room at Suzanne level 1: 10.5M of 24M (vertex, patch) pairs). A single vertex
+        // then links the line's clusters under the flat horizon rule.
+        const bool onlyHorizon = !mixed && g.coneSin < 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy && !above;
+        const bool wedge = onlyHorizon && g.count > 1 && dist * g.coneSin + g.radius > c.radius;
+        const bool openReceiver = byVertex || c.count == 1 || wedge || (g.count > 1 && g.radius >= c.radius);
         for (int k = 1; k >= 0; --k)
           stack.push_back(openReceiver ? std::pair{uint32_t(g.child[k]), ci} : std::pair{gi, uint32_t(c.child[k])});
       }
