@@ -1026,7 +1026,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // some receivers' horizons opens the group while the wedge its receivers' planes sweep
         // at the cluster (d sin(cone) + r_g) is wider than the cluster: opening the cluster instead
         // walked each curved vertex down to the single patches along its horizon line, n^1.5
-        // (Blender room at Suzanne level 1: 10.5M of 24M (vertex, patch) pairs). A single vertex
+        // (Blender room at Suzanne level 1: 10.5M of 23M (vertex, patch) pairs). A single vertex
         // then links the line's clusters under the flat horizon rule.
         const bool onlyHorizon = !mixed && g.coneSin < 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy && !above;
         const bool wedge = onlyHorizon && g.count > 1 && dist * g.coneSin + g.radius > c.radius;
