@@ -878,13 +878,16 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // (Not in the sky pass: its cover is not closed by anything, and the furnaces under a sky
         // are exact to 1e-5.)
         const bool flat = !w.cover && g.coneSin < 1e-6 && g.thickness <= 1e-9 * (g.radius + dist);
-        const double horizonError = flat ? c.area / (kPi * dist * dist) * std::max(0.0, -over.low) / dist
-                                         : std::numeric_limits<double>::infinity();
+        // The light of patches with negative cosines, the cluster reaching `depth` past their zero.
+        auto dipError = [&](double depth) { return c.area / (kPi * dist * dist) * std::max(0.0, depth) / dist; };
+        const double horizonError = flat ? dipError(-over.low) : std::numeric_limits<double>::infinity();
         const bool above = over.low >= -over.rounding || horizonError < w.accuracy * kHorizonShare;
+        // Everything a link needs but its horizon, facing and visibility.
+        const bool linkable = !mixed && g.coneSin < 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy;
         bool split = true;
         bool byVertex = false;  // open the group down to its vertices
         bool sawLight = false;  // a ray of the link test got through
-        if (!mixed && g.coneSin < 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy && above) {
+        if (linkable && above) {
           const Vec3 u = d / dist;
           const double alpha = std::asin(c.coneSin), gamma = std::asin(std::min(1.0, ratio));
           const double beta = std::acos(std::clamp(-dot(c.axis, u), -1.0, 1.0));
@@ -894,9 +897,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           // A cluster whose patches turn away from some receivers by a little (the terminator of a
           // curved object) is linked like one facing them, when the backs' negative cosines, at most
           // F · depth / d of light as under a flat group's horizon, stay below the same share of
-          // --accuracy; their centres are not asked for visibility (`sends`).
-          const double backError = c.area / (kPi * dist * dist) * std::max(0.0, -facing.low) / dist;
-          const bool turning = !w.cover && facing.high > facing.rounding && backError < w.accuracy * kHorizonShare;
+          // --accuracy (dipError); their centres are not asked for visibility (`sends`).
+          const bool turning = !w.cover && facing.high > facing.rounding && dipError(-facing.low) < w.accuracy * kHorizonShare;
           const bool toward = alpha + beta + gamma < kPi / 2 || facing.low >= -facing.rounding || turning;
           if (away && !w.cover) continue;  // every patch shows the group its back
           if (toward || away) {
@@ -931,7 +933,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                   uint32_t item = S.order[c.first + start];
                   Vec3 target;
                   // A patch dipping under a flat group's plane (linked by horizonError) or turned
-                  // away from v (linked by backError) sends v no light: the next patch that does is
+                  // away from v (linked as `turning`) sends v no light: the next patch that does is
                   // asked instead, and if there is none the ray counts as through.
                   auto sends = [&] {
                     target = centre[item] + w.mesh.patches[w.patchOf[item]].normal * (away ? -lift : lift);
@@ -1028,8 +1030,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // walked each curved vertex down to the single patches along its horizon line, n^1.5
         // (Blender room at Suzanne level 1: 10.5M of 23M (vertex, patch) pairs). A single vertex
         // then links the line's clusters under the flat horizon rule.
-        const bool onlyHorizon = !mixed && g.coneSin < 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy && !above;
-        const bool wedge = onlyHorizon && g.count > 1 && dist * g.coneSin + g.radius > c.radius;
+        const bool wedge = linkable && !above && g.count > 1 && dist * g.coneSin + g.radius > c.radius;
         const bool openReceiver = byVertex || c.count == 1 || wedge || (g.count > 1 && g.radius >= c.radius);
         for (int k = 1; k >= 0; --k)
           stack.push_back(openReceiver ? std::pair{uint32_t(g.child[k]), ci} : std::pair{gi, uint32_t(c.child[k])});
