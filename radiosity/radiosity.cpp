@@ -1059,9 +1059,14 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
   Vec3 normal = patch.normal;
   // The vertex's own patches: on a concave surface they rise in front of it and cover what their
   // front-side limit says (as in K); on a convex one they fall away behind it and cover nothing
-  // (their limit from behind is ill-conditioned, so it is not taken).
+  // (their limit from behind is ill-conditioned, so it is not taken). So does a patch whose plane
+  // holds the vertex to rounding: the other wall's patch at an unwelded crease (a flat-shaded
+  // export). Judged by the sign of a rounding error it was seen from behind, and its limit from
+  // behind is 0: the wall of a concave crease covered nothing, and a white open box under a sky of
+  // 1 went to 3.5 at its rims (tests: Sky.AWhiteOpenBoxIsUniformUnderASky). K keeps such a patch
+  // by the same margin (addPatchKernel).
   const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
-  if (!isOwn && dot(normal, p - q[0]) < 0) {  // seen from behind: the same solid angle, reversed polygon
+  if (!isOwn && dot(normal, p - q[0]) < -occlusion.epsilon()) {  // seen from behind: the same solid angle, reversed polygon
     // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
     std::swap(q[1], q[3]);
     normal = -normal;

@@ -7,7 +7,10 @@ Furnaces: normals flipped inward and one material, base color 0.5, emission 1 (s
 such a closed shell every point sees only the shell, so the exact outgoing radiance is
 L = L0 / (1 - rho) = 2 at every vertex. Sky objects: convex primitives as they come (outward),
 base color 0.5, no emission, baked under a uniform sky of 1: every point of a lone convex object
-sees only sky, so L = rho = 0.5. Written per mesh: NAME.glb, and index.json listing file,
+sees only sky, so L = rho = 0.5. Trays: a cube with its top face deleted, turned off the axes (so a
+crease vertex lies in the other wall's plane only to rounding), base color 1, under a sky of 1:
+every ray from a white surface ends at the sky or at another white surface, so L = 1 at every
+vertex, the creases included. Written per mesh: NAME.glb, and index.json listing file,
 primitive, shading, sides, the exact L and the bake options it needs. Shading: flat, smooth, auto-smooth (30 deg). Sides: one
 (backface culling on: Blender exports doubleSided false) and both (Blender's default: doubleSided
 true).
@@ -46,11 +49,11 @@ SHADINGS = ["flat", "smooth", "autosmooth"]
 SIDES = ["one", "both"]
 
 
-def material(double_sided, emission):
+def material(double_sided, emission, base=0.5):
     m = bpy.data.materials.new("grey_" + ("both" if double_sided else "one"))
     m.use_nodes = True
     bsdf = m.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1)
+    bsdf.inputs["Base Color"].default_value = (base, base, base, 1)
     if emission:
         bsdf.inputs["Emission"].default_value = (1, 1, 1, 1)
         bsdf.inputs["Emission Strength"].default_value = 1.0
@@ -67,6 +70,18 @@ def export(kind, name, shading, sides):
         bpy.ops.mesh.select_all(action="SELECT")
         bpy.ops.mesh.flip_normals()
         bpy.ops.object.mode_set(mode="OBJECT")
+    if kind == "tray":
+        bpy.ops.object.mode_set(mode="EDIT")
+        bpy.ops.mesh.select_all(action="DESELECT")
+        bpy.ops.object.mode_set(mode="OBJECT")
+        for poly in obj.data.polygons:
+            poly.select = poly.normal.z > 0.5
+        bpy.ops.object.mode_set(mode="EDIT")
+        bpy.ops.mesh.delete(type="FACE")
+        bpy.ops.mesh.select_all(action="SELECT")
+        bpy.ops.mesh.flip_normals()  # the inside is what a tray shows
+        bpy.ops.object.mode_set(mode="OBJECT")
+        obj.rotation_euler = (math.radians(20), math.radians(30), math.radians(40))
     if shading == "flat":
         bpy.ops.object.shade_flat()
     else:
@@ -74,10 +89,10 @@ def export(kind, name, shading, sides):
         if shading == "autosmooth":
             obj.data.use_auto_smooth = True
             obj.data.auto_smooth_angle = math.radians(30)
-    obj.data.materials.append(material(sides == "both", kind == "furnace"))
+    obj.data.materials.append(material(sides == "both", kind == "furnace", 1.0 if kind == "tray" else 0.5))
     file = f"{kind}_{name}_{shading}_{sides}.glb"
     bpy.ops.export_scene.gltf(filepath=os.path.join(out_dir, file))
-    exact, args = (2.0, []) if kind == "furnace" else (0.5, ["--sky", "1"])
+    exact, args = {"furnace": (2.0, []), "sky": (0.5, ["--sky", "1"]), "tray": (1.0, ["--sky", "1"])}[kind]
     return {"file": file, "kind": kind, "primitive": name, "shading": shading, "sides": sides,
             "exact": exact, "args": args}
 
@@ -91,6 +106,9 @@ for name in (CONVEX_QUICK if quick else CONVEX):
     for shading in ["flat", "smooth"]:
         for sides in SIDES:
             index.append(export("sky", name, shading, sides))
+for shading in ["flat", "smooth"]:
+    for sides in SIDES:
+        index.append(export("tray", "cube", shading, sides))
 
 with open(os.path.join(out_dir, "index.json"), "w") as f:
     json.dump(index, f, indent=1)

@@ -2,7 +2,8 @@
 # Blender's primitives exported by Blender's glTF exporter at its defaults, baked by radbake, each
 # checked against its exact answer (tests/blender/make_furnaces.py, check_furnaces.py): furnaces
 # (L = 2) flat, smooth and auto-smooth, one- and double-sided, bilinear at N = 1 and 2, constant at
-# N = 1 on the small meshes (its near-patch factors are slow), both at N = 4 on the smallest; lone convex objects under a sky (L = 0.5). The whole
+# N = 1 on the small meshes (its near-patch factors are slow), both at N = 4 on the smallest; lone convex objects under a sky (L = 0.5)
+# and white open trays, flat and smooth, turned off the axes (L = 1: bilinear N = 1 and 2). The whole
 # family at N = 1, 2, 4 is bench/furnaces/run.sh (too slow for every run). Skipped (77) without
 # Blender.
 #   run_furnace_test.sh RADBAKE_BINARY
