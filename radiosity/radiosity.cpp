@@ -1296,8 +1296,10 @@ std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion&
         // covers nothing of it.
         if (l == k || l == twin || mesh.patches[l].backSide) continue;
         auto ql = corners(mesh, mesh.patches[l]);
+        Vec3 toward = mesh.patches[l].normal;  // l's side that k sees
         if (dot(mesh.patches[l].normal, pointOnPatch(qk, 0, 0) - ql[0]) < 0) {
           std::swap(ql[1], ql[3]);
+          toward = -toward;
         }
         const double f = constantPatchFactor(qk, ql);
         if (!(f > 0)) continue;
@@ -1305,7 +1307,11 @@ std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion&
         const uint32_t ignore[3] = {uint32_t(k), uint32_t(l), twin};
         const uint32_t self[1] = {uint32_t(k)};
         const Sight sight{occlusion, mesh, from, ignore, self};
-        for (const auto& b : kProbe) seen += sight.visible(pointOnPatch(ql, b[0], b[1]));
+        // The probes lifted off l on k's side, as in the transport: on l's plane itself they ended
+        // on l's double-sided twin, which blocked some of them by rounding (a white double-sided
+        // tray under a sky of 1 went 1.9% too bright at N = 2, 3.6% at N = 4).
+        const Vec3 lift = toward * (occlusion.epsilon() * 10);
+        for (const auto& b : kProbe) seen += sight.visible(pointOnPatch(ql, b[0], b[1]) + lift);
         covered += f * seen / 5.0;
       }
       sky[k] = std::max(0.0, 1 - covered);
