@@ -870,7 +870,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // at links of one to three receivers, not for the estimate: with at least kClusterRays rays
         // per link they are within 1.4% without the factor, which opened curved groups to twice the
         // (vertex, patch) pairs.)
-        // The link's factor with both cosines, |n_g · w| |w · Σ A n| / (π |w|⁴).
+        // The cluster's A/(π d²), and the link's factor with both cosines, |n_g · w| |w · Σ A n| / (π |w|⁴).
+        const double spread = c.area / (kPi * dist * dist);
         const double factor = std::abs(dot(g.axis, d)) * std::abs(dot(d, c.areaNormal)) / (kPi * dist * dist * dist * dist);
         // The error of the centroid expansions, second order in the ratio: the cross term of the two
         // cosines (linear in position) is bounded by the cluster's area without cosines, and the
@@ -878,7 +879,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // part of the 2CylinderEngine the large flat faces gathered up to 4.6% off exact (0.59% RMS)
         // from many links erring the same way; with it 2.4% (0.28%), in the same time. More link rays
         // did not help (4.5%). Cornell box N = 20: 11% more time, 0.152% RMS instead of 0.192%.
-        const double linkError = ratio * ratio * (3 * c.area / (kPi * dist * dist) + 6 * factor);
+        const double linkError = ratio * ratio * (3 * spread + 6 * factor);
         // A flat group (one plane for every receiver) may take a cluster that dips below that plane
         // by `depth`: the dipping part keeps its negative cosine, at most F · depth / d of light,
         // and along a plane's horizon line these shrink as the cube of the distance, so they stay
@@ -887,7 +888,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // are exact to 1e-5.)
         const bool flat = !w.cover && g.coneSin < 1e-6 && g.thickness <= 1e-9 * (g.radius + dist);
         // The light of patches with negative cosines, the cluster reaching `depth` past their zero.
-        auto dipError = [&](double depth) { return c.area / (kPi * dist * dist) * std::max(0.0, depth) / dist; };
+        auto dipError = [&](double depth) { return spread * std::max(0.0, depth) / dist; };
         const double horizonError = flat ? dipError(-over.low) : std::numeric_limits<double>::infinity();
         const bool above = over.low >= -over.rounding || horizonError < w.accuracy * kHorizonShare;
         // Everything a link needs but its horizon, facing and visibility.
