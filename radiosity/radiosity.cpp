@@ -95,7 +95,7 @@ struct Hierarchical {
   std::vector<std::array<double, 4>> shapeAreas;    // per patch, A_j = ∫ N_j dA (the moments)
   std::vector<size_t> start;                        // near entries per vertex (CSR)
   std::vector<uint32_t> column;
-  std::vector<double> value;
+  std::vector<float> value;  // a kernel to 7 digits: it is integrated to --accuracy/10 (relative) at best
   std::vector<size_t> linkStart;                    // links per receiver node (CSR)
   std::vector<ClusterLink> links;
   std::vector<uint32_t> leafOf;                     // vertex → its leaf in the receiver tree
@@ -105,7 +105,7 @@ struct Hierarchical {
   size_t nearRays = 0;  // the (vertex, patch) pairs' rays
   double worstError = 0;  // the largest Σ of link error estimates over one vertex's links
   size_t bytes() const {
-    return start.size() * sizeof(size_t) + column.size() * sizeof(uint32_t) + value.size() * sizeof(double) +
+    return start.size() * sizeof(size_t) + column.size() * sizeof(uint32_t) + value.size() * sizeof(float) +
            linkStart.size() * sizeof(size_t) + links.size() * sizeof(ClusterLink) +
            (source.nodes.size() + receiver.nodes.size()) * sizeof(TreeNode) +
            (source.order.size() + receiver.order.size()) * sizeof(uint32_t) + shapeAreas.size() * sizeof(shapeAreas[0]);
@@ -728,9 +728,10 @@ ClusterTree patchTree(const PatchMesh& mesh, const std::vector<uint32_t>& patche
 }
 
 // What the walks keep, against RadiosityOptions::transportMemoryBytes, counted as they go. A near
-// entry costs 16 bytes in its row, about 8 more in the row's spare capacity, and 12 once packed
-// (the rows and the packed form coexist while it is packed): 36. A link costs its 8.
-constexpr size_t kNearEntryBytes = 36;
+// entry costs 8 bytes in its vertex's packed row (a walk task packs its vertices' rows when it
+// ends: the rows being filled are a task's, two at a time) and 8 once in the transport (the two
+// coexist while it is built): 16. A link costs its 8.
+constexpr size_t kNearEntryBytes = 16;
 struct MemoryBudget {
   size_t limit = SIZE_MAX;
   std::atomic<size_t> used{0};
@@ -747,8 +748,9 @@ struct MemoryBudget {
 // Transport: a link needs every patch facing every receiver, and light never crosses a closed
 // surface. Cover (the sky pass): every patch facing the group or every patch facing away (a
 // surface covers the sky from either side), no closure. `leaf(v, patch)` handles the exact
-// (vertex, patch) pairs and returns the bytes it kept (for the memory budget); `gathers(v)` says
-// whether vertex v needs anything at all.
+// (vertex, patch) pairs and returns the bytes it kept (for the memory budget); `taskDone(node)`, if
+// given, is called when a task's receiver subtree is walked (its vertices have all their pairs);
+// `gathers(v)` says whether vertex v needs anything at all.
 struct WalkSetup {
   const PatchMesh& mesh;
   const Occlusion& occlusion;
@@ -764,7 +766,8 @@ struct WalkSetup {
 std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::function<bool(uint32_t)>& gathers,
                                                 std::vector<double>& nodeError,
                                                 const std::function<size_t(uint32_t, uint32_t, std::vector<uint32_t>&)>& leaf,
-                                                Ticker& ticker, size_t& raysShot) {
+                                                const std::function<void(const TreeNode&)>& taskDone, Ticker& ticker,
+                                                size_t& raysShot) {
   const ClusterTree &R = w.groups.tree, &S = w.source;
   std::vector<std::vector<ClusterLink>> links(R.nodes.size());
   nodeError.assign(R.nodes.size(), 0.0);  // Σ of its links' error estimates (tasks own disjoint nodes)
@@ -1044,6 +1047,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           stack.push_back(openReceiver ? std::pair{uint32_t(g.child[k]), ci} : std::pair{gi, uint32_t(c.child[k])});
       }
       w.memory.add(kept);
+      if (taskDone) taskDone(R.nodes[w.groups.tasks[task]]);
       ticker.add(R.nodes[w.groups.tasks[task]].count);
     }
     rays += shot;
@@ -1109,7 +1113,7 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
         pairRays.fetch_add(traced, std::memory_order_relaxed);
         return size_t(0);
       },
-      ticker, rays);
+      {}, ticker, rays);
   nearRays += pairRays.load();
   // Each vertex adds the links of its groups, from its leaf to the root.
   const std::vector<int32_t>& parent = groups.parent;
@@ -1161,6 +1165,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = std::max(options.kernelTolerance, options.accuracy * kNearKernelShare);
   std::vector<Row> near(nv);
+  std::vector<std::vector<std::pair<uint32_t, float>>> packed(nv);
   Ticker ticker(options.progress, nv, progressFrom, 0.8);
   MemoryBudget memory;
   memory.limit = options.transportMemoryBytes;
@@ -1175,18 +1180,25 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
                            std::memory_order_relaxed);
         return (near[v].size() - before) * kNearEntryBytes;
       },
+      [&](const TreeNode& task) {  // its vertices' rows are complete: packed, at 8 bytes an entry
+        for (uint32_t k = task.first; k < task.first + task.count; ++k) {
+          const uint32_t v = groups.tree.order[k];
+          canonicalize(near[v]);
+          packed[v].reserve(near[v].size());
+          for (const auto& [col, val] : near[v]) packed[v].emplace_back(col, float(val));
+          Row().swap(near[v]);
+        }
+      },
       ticker, h.rays);
   h.nearRays = pairRays.load();
 
   h.start.assign(1, 0);
+  for (size_t v = 0; v < nv; ++v) h.start.push_back(h.start.back() + packed[v].size());
+  h.column.resize(h.start.back());
+  h.value.resize(h.start.back());
   for (size_t v = 0; v < nv; ++v) {
-    canonicalize(near[v]);
-    for (const auto& [col, val] : near[v]) {
-      h.column.push_back(col);
-      h.value.push_back(val);
-    }
-    h.start.push_back(h.column.size());
-    Row().swap(near[v]);
+    for (size_t e = 0; e < packed[v].size(); ++e) std::tie(h.column[h.start[v] + e], h.value[h.start[v] + e]) = packed[v][e];
+    std::vector<std::pair<uint32_t, float>>().swap(packed[v]);
   }
   // The error estimate of what a vertex gathers far: its groups' link estimates, leaf to root.
   for (size_t v = 0; v < nv; ++v) {
@@ -1195,6 +1207,9 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
     h.worstError = std::max(h.worstError, error);
   }
   h.linkStart.assign(1, 0);
+  size_t linkCount = 0;
+  for (const auto& list : links) linkCount += list.size();
+  h.links.reserve(linkCount);
   for (auto& list : links) {
     h.links.insert(h.links.end(), list.begin(), list.end());
     h.linkStart.push_back(h.links.size());
