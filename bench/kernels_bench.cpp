@@ -45,6 +45,14 @@ void BilinearKernelNearEdge(benchmark::State& state) {
 }
 BENCHMARK(BilinearKernelNearEdge);
 
+void BilinearKernelSliver(benchmark::State& state) {
+  // A 50:1 sliver (a cylinder's side in a CAD tessellation), the receiver 0.01 in front of its middle.
+  const std::array<Vec3, 4> sliver{{{0, 0, 0}, {1, 0, 0}, {1, 0.02, 0}, {0, 0.02, 0}}};
+  for (auto _ : state) benchmark::DoNotOptimize(vertexQuadKernel({0.5, 0.01, 0.01}, {0, 0, -1}, {1, 0, 0}, sliver));
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BilinearKernelSliver);
+
 void BilinearKernelCreaseLimit(benchmark::State& state) {
   const std::array<Vec3, 4> wall{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}};
   const Vec3 bisector = normalize(Vec3{1, 0, 1});

@@ -448,6 +448,19 @@ struct KernelIntegrator {
       return;
     }
     const double sm = (s0 + s1) / 2, tm = (t0 + t1) / 2;
+    // A long, thin cell (a sliver patch's) is halved across its length only: halved both ways its
+    // children were thinner than their distance needs, twice the cells for nothing.
+    const double along = length(map.at(s1, tm) - map.at(s0, tm)), across = length(map.at(sm, t1) - map.at(sm, t0));
+    if (along > 2 * across) {
+      cell(s0, sm, t0, t1, depth + 1);
+      cell(sm, s1, t0, t1, depth + 1);
+      return;
+    }
+    if (across > 2 * along) {
+      cell(s0, s1, t0, tm, depth + 1);
+      cell(s0, s1, tm, t1, depth + 1);
+      return;
+    }
     cell(s0, sm, t0, tm, depth + 1);
     cell(sm, s1, t0, tm, depth + 1);
     cell(sm, s1, tm, t1, depth + 1);

@@ -359,6 +359,35 @@ TEST(VertexQuadKernel, ShapeFunctionSplitNearEdges) {
   report("moment reference self-convergence (order 14 vs 20)", worstRef);
 }
 
+// A sliver source (50:1, as CAD tessellations of cylinders make them): the quadrature cells are
+// halved across their length only, and must still meet the claim against the moment reference.
+TEST(VertexQuadKernel, SliverSourceMatchesMomentReference) {
+  struct Case {
+    const char* name;
+    Vec3 p, n;
+  };
+  const Vec3 origin{0, 0, 0}, eu{1, 0, 0}, ev{0, 1, 0};
+  const double H = 0.02;
+  const std::array<Vec3, 4> sliver{origin, origin + eu, origin + eu + ev * H, origin + ev * H};
+  const Case cases[] = {
+      {"facing its middle at 0.02", {0.5, 0.01, 0.02}, {0, 0, -1}},
+      {"facing near an end at 0.005", {0.05, 0.01, 0.005}, {0, 0, -1}},
+      {"floor 1e-3 from its long edge", {0.5, 0, 1e-3}, {0, 1, 0}},
+      {"tilted, above its long edge", {0.7, 0.05, 0.01}, normalize(Vec3{0, -0.5, -1})},
+  };
+  double worst = 0;
+  for (const auto& c : cases) {
+    const auto ref = momentReference(c.p, c.n, origin, eu, 1, ev, H, 20);
+    const auto k = vertexQuadKernel(c.p, c.n, someTangent(c.n), sliver);
+    for (int j = 0; j < 4; ++j) {
+      const double e = relErr(k[j], ref[j]);
+      EXPECT_LE(e, 1e-6) << c.name << " K_" << j << " got " << k[j] << " want " << ref[j];
+      worst = std::max(worst, e);
+    }
+  }
+  report("K_j on a 50:1 sliver vs the moment reference", worst);
+}
+
 // Accuracy of the individual K_j at the default tolerance against the same
 // kernel run at 1e-13, over every reference case (far, near, clipped).
 TEST(VertexQuadKernel, DefaultToleranceMeetsClaim) {
