@@ -95,7 +95,7 @@ struct Hierarchical {
   std::vector<std::array<double, 4>> shapeAreas;    // per patch, A_j = ∫ N_j dA (the moments)
   std::vector<size_t> start;                        // near entries per vertex (CSR)
   std::vector<uint32_t> column;
-  std::vector<float> value;  // a kernel to 7 digits: it is integrated to --accuracy/10 (relative) at best
+  std::vector<float> value;  // 7 digits: more than the near kernels are integrated to (--accuracy/10)
   std::vector<size_t> linkStart;                    // links per receiver node (CSR)
   std::vector<ClusterLink> links;
   std::vector<uint32_t> leafOf;                     // vertex → its leaf in the receiver tree
