@@ -1056,51 +1056,68 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
   return links;
 }
 
-// The part of vertex i's projected solid angle that patch `source` covers, seen from either side
-// (bilinearSkyFractions' term). `ignore` has a free last slot.
-double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, size_t i, size_t source,
-                std::vector<uint32_t>& ignore, double faint, size_t& rays) {
+// The part of vertex i's projected solid angle that patch `source` covers, seen from either side:
+// seen from the front, what it sends in K (Σ_j K_ij, addPatchKernel), so that the sky and the
+// transport agree on what covers a receiver and a white scene under a sky of 1 is uniform. A
+// patch that touches the vertex covers its kernel's limits (all at the vertex: no quadrature); a
+// fully visible one its factor (Σ_j K_ij = F to rounding); only a partly hidden one needs the
+// kernel, integrated with `kernel`, to weight its corners' visible fractions. Until the seventh
+// session of 2026-12-02 the cover was the polygon's own limit times the plain mean of its corners'
+// visibility: it missed the floor patch under a block's foot (the limit of a plane the vertex
+// stands inside, half the hemisphere of the vertices along the foot: a white block on a white
+// floor under a sky of 1 went to 1.5 there), and it put partly hidden patches near a vertex up to
+// 30% off Σ_j K_ij. Seen from behind, a double-sided patch's twin covers in its place (its front is
+// K's); a one-sided patch, the same solid angle with the polygon reversed. `ignore` has a free
+// last slot.
+double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, const KernelOptions& kernel,
+                size_t i, size_t source, std::vector<uint32_t>& ignore, double faint, size_t& rays) {
   const Patch& patch = mesh.patches[source];
   // Covering is geometry, not light: a double-sided surface covers once (its front patch stands
   // for both sides), and the vertex's own twin covers nothing.
   if (patch.backSide || recv.isOwnTwin(i, uint32_t(source))) return 0;
-  const Vec3 p = mesh.positions[i], nrm = recv.normal[i];
+  const Vec3 p = mesh.positions[i], nrm = recv.normal[i], approach = recv.approach[i];
+  // Behind by K's own margin (addPatchKernel): a patch whose plane holds the vertex to rounding
+  // (the other wall at an unwelded crease of a flat-shaded export) is seen from the front.
   const auto own = recv.own(i);
-  ignore.back() = uint32_t(source);
-  auto q = corners(mesh, patch);
-  Vec3 normal = patch.normal;
-  // The vertex's own patches: on a concave surface they rise in front of it and cover what their
-  // front-side limit says (as in K); on a convex one they fall away behind it and cover nothing
-  // (their limit from behind is ill-conditioned, so it is not taken). So does a patch whose plane
-  // holds the vertex to rounding: the other wall's patch at an unwelded crease (a flat-shaded
-  // export). Judged by the sign of a rounding error it was seen from behind, and its limit from
-  // behind is 0: the wall of a concave crease covered nothing, and a white open box under a sky of
-  // 1 went to 3.5 at its rims (tests: Sky.AWhiteOpenBoxIsUniformUnderASky). K keeps such a patch
-  // by the same margin (addPatchKernel).
   const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
-  if (!isOwn && dot(normal, p - q[0]) < -occlusion.epsilon()) {  // seen from behind: the same solid angle, reversed polygon
-    // (a triangle's repeated vertex moves but stays consecutive, which the factor accepts)
-    std::swap(q[1], q[3]);
+  const bool behind = !isOwn && dot(patch.normal, p - mesh.positions[patch.v[0]]) < -occlusion.epsilon();
+  const uint32_t from = behind && patch.twin >= 0 ? uint32_t(patch.twin) : uint32_t(source);
+  auto q = corners(mesh, mesh.patches[from]);
+  Vec3 normal = mesh.patches[from].normal;
+  if (from == source && behind) {  // the same solid angle, reversed polygon (a triangle's repeated
+    std::swap(q[1], q[3]);         // vertex moves but stays consecutive, which the factor accepts)
     normal = -normal;
   }
-  const double f = pointPolygonFactorLimit(p, nrm, recv.approach[i], q.data(), 4);
+  // addPatchKernel's rejections: all below the horizon, or behind the plane (a vertex of a curved
+  // surface off its own non-planar patch's plane, whose limit would be ill-conditioned).
+  bool above = false;
+  for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
+  if (!above || dot(normal, p - q[0]) < -occlusion.epsilon()) return 0;
+  auto sum = [](const std::array<double, 4>& k, const std::array<double, 4>& weight) {
+    return k[0] * weight[0] + k[1] * weight[1] + k[2] * weight[2] + k[3] * weight[3];
+  };
+  if (nearestQuadPoint(q, p).distance <= occlusion.epsilon()) return sum(vertexQuadKernel(p, nrm, approach, q, kernel), {1, 1, 1, 1});
+  const double f = pointPolygonFactorLimit(p, nrm, approach, q.data(), 4);
   if (!(f > 0)) return 0;
-  const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
+  ignore.back() = from;
   const Sight sight{occlusion, mesh, recv.origin[i], ignore, own};
-  const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : pairVisibility(sight, nrm, q, normal, patch.area, faint, rays);
-  return f * (vis[0] + vis[1] + vis[2] + vis[3]) / 4;
+  const auto vis = pairVisibility(sight, nrm, q, normal, mesh.patches[from].area, faint, rays);
+  if (vis == std::array<double, 4>{1, 1, 1, 1} || vis == std::array<double, 4>{}) return f * vis[0];
+  return sum(vertexQuadKernel(p, nrm, approach, q, kernel), vis);
 }
 
 // The sky fractions with the cluster walk (cover mode): near patches exactly (skyCover), far
 // clusters as n · w |w · Σ A n| / (π |w|⁴) per vertex, w from the vertex to the cluster's centroid.
 std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
                                              const Closure& closure, const ReceiverGroups& groups, double accuracy,
-                                             MemoryBudget& memory, Ticker& ticker, size_t& rays, size_t& nearRays) {
+                                             double kernelTolerance, MemoryBudget& memory, Ticker& ticker, size_t& rays, size_t& nearRays) {
   const size_t nv = mesh.positions.size();
   std::vector<uint32_t> front;  // a double-sided surface covers once
   for (size_t p = 0; p < mesh.patches.size(); ++p)
     if (!mesh.patches[p].backSide) front.push_back(uint32_t(p));
   const ClusterTree tree = patchTree(mesh, front, closure);
+  KernelOptions kernel;  // as the transport's near kernels (hierarchicalTransport), at this pass's accuracy
+  kernel.relativeTolerance = std::max(kernelTolerance, accuracy * kNearKernelShare);
   std::vector<double> covered(nv, 0.0);
   const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy, memory};
   std::vector<double> nodeError;  // the cover pass's own estimate is not reported
@@ -1109,7 +1126,7 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
       setup, [&](uint32_t v) { return !closure.rows[v]; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
         size_t traced = 0;
-        covered[v] += skyCover(mesh, occlusion, recv, v, patch, ignore, accuracy * kFaintPairShare, traced);
+        covered[v] += skyCover(mesh, occlusion, recv, kernel, v, patch, ignore, accuracy * kFaintPairShare, traced);
         pairRays.fetch_add(traced, std::memory_order_relaxed);
         return size_t(0);
       },
@@ -1285,7 +1302,9 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
 // The part of each receiver's projected solid angle that no surface covers, front or back: what a
 // uniform sky lights. Two-sided factors of every patch, times their visible fraction.
 std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
-                                         const std::vector<bool>& enclosed, Ticker& ticker) {
+                                         const std::vector<bool>& enclosed, double kernelTolerance, Ticker& ticker) {
+  KernelOptions kernelOptions;  // the exact transport's (bilinearTransport)
+  kernelOptions.relativeTolerance = kernelTolerance;
   std::vector<double> sky(mesh.positions.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -1295,7 +1314,7 @@ std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion&
       ignore.push_back(0);
       size_t rays = 0;  // not reported by the exact transport
       for (size_t source = 0; source < mesh.patches.size(); ++source)
-        covered += skyCover(mesh, occlusion, recv, i, source, ignore, 0, rays);
+        covered += skyCover(mesh, occlusion, recv, kernelOptions, i, source, ignore, 0, rays);
       sky[i] = std::max(0.0, 1 - covered);
     }
     ticker.add(range.size());
@@ -1566,8 +1585,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
                   MemoryBudget memory;  // the sky pass keeps its links until its fractions are summed
                   memory.limit = options.transportMemoryBytes;
                   return hierarchical ? hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, options.accuracy * kSkyAccuracy,
-                                                                 memory, skyTicker, solution.clusterRays, solution.nearRays)
-                                      : bilinearSkyFractions(mesh, occlusion, *recv, closure->rows, skyTicker);
+                                                                 options.kernelTolerance, memory, skyTicker, solution.clusterRays, solution.nearRays)
+                                      : bilinearSkyFractions(mesh, occlusion, *recv, closure->rows, options.kernelTolerance, skyTicker);
                 }),
         reflectance, bilinearDirectLight(scene, mesh, occlusion, *recv));
     Transport K;

@@ -468,6 +468,48 @@ TEST(Sky, AWhiteOpenBoxIsUniformUnderASky) {
 
 namespace {
 
+// A white block standing on a white floor under a uniform sky of radiance 1, one-sided: every ray
+// from a point that sees anything ends at the sky or at a surface of radiance 1, so L = 1. That
+// holds only where the sky fraction and the transport's rows agree on what covers each receiver,
+// partly hidden patches and the floor patch under the block's foot included: for the exact
+// transport to rounding (3e-7: its sky pass takes what K's entries sum to), for the hierarchical
+// one within 1e-4 (3.8e-5: its sky pass and its transport are two walks, each to its accuracy). The
+// sky once took its cover from each polygon's own limit and a plain mean of the corners'
+// visibility, and the block's sides along the floor gathered about 1.5 (the lower half of their
+// hemisphere was sky and floor at once). The block stands inside one floor patch, so no floor
+// vertex is under it (such a vertex is black, and the floor's bilinear field around it too).
+TEST(Sky, AWhiteBlockOnAWhiteFloorIsUniformUnderASky) {
+  Scene scene;
+  scene.materials = {material("white", 1.0, 0)};
+  Primitive floor;
+  floor.material = 0;
+  floor.hasNormals = true;
+  floor.positions = {{-0.5, 0, -0.5}, {-0.5, 0, 1.5}, {1.5, 0, 1.5}, {1.5, 0, -0.5}};
+  floor.normals.assign(4, Vec3{0, 1, 0});
+  floor.triangles = {{0, 1, 2}, {0, 2, 3}};
+  scene.primitives.push_back(floor);
+  scene.primitives.push_back(boxPrimitive({0.6, 0, 0.6}, {0.9, 0.3, 0.9}, false, 0));
+  TessellateOptions t;
+  t.subdivide = 2;  // floor patches of 1 × 1: the block's foot lies inside one
+  const PatchMesh mesh = tessellate(scene, t);
+  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+    RadiosityOptions o;
+    o.transport = transport;
+    o.sky = {1, 1, 1};
+    const Solution s = solveRadiosity(scene, mesh, o);
+    double worst = 0;
+    int checked = 0;
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      if (mesh.normals[v].y < -0.5) continue;  // the block's bottom, pressed on the floor (a contact)
+      worst = std::max(worst, std::abs(s.vertexRadiance[v].x - 1));
+      ++checked;
+    }
+    EXPECT_LT(worst, transport == TransportMode::kExact ? 1e-5 : 1e-4) << (transport == TransportMode::kExact ? "exact" : "hierarchical")
+                                                                       << ": " << worst;
+    EXPECT_EQ(checked, 9 + 5 * 9);  // the floor's 3 × 3 vertices, the block's other five faces
+  }
+}
+
 TEST(DoubleSided, AnOutwardFacingBoxIsAFurnaceInside) {
   // A closed box whose faces point outward, with a double-sided emitting material (ρ 0.5, L⁰ 1):
   // inside, the back sides form a furnace (L = 2 everywhere); outside, the fronts see nothing
