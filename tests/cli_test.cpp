@@ -687,6 +687,30 @@ TEST(BadInput, UnwritableOutputIsExit4) {
   EXPECT_NE(r.err.find("/nonexistent-dir/out.glb: cannot write"), std::string::npos) << r.err;
 }
 
+// The input is never overwritten: not by -o, nor through a symlink or a hard link to it.
+TEST(BadInput, AnOutputOverTheInputIsRefusedAndTheInputKept) {
+  const fs::path dir = tempDir(), in = dir / "box.gltf";
+  fs::copy_file(kTestData / "scenes" / "furnace_cube.gltf", in);
+  auto bytes = [](const fs::path& p) {
+    std::ifstream f(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  };
+  const std::string before = bytes(in);
+  fs::create_symlink(in, dir / "link.gltf");
+  fs::create_hard_link(in, dir / "hard.gltf");
+  for (const fs::path& out : {in, dir / "link.gltf", dir / "hard.gltf", dir / "." / "box.gltf"}) {
+    const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "-q"});
+    EXPECT_EQ(r.code, 1) << out;
+    EXPECT_NE(r.err.find("-o " + out.string() + " is the input; it would be overwritten"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  EXPECT_EQ(bytes(in), before);
+  std::vector<std::string> left;
+  for (const auto& entry : fs::directory_iterator(dir)) left.push_back(entry.path().filename().string());
+  std::sort(left.begin(), left.end());
+  EXPECT_EQ(left, (std::vector<std::string>{"box.gltf", "hard.gltf", "link.gltf"}));
+}
+
 TEST(Bezier, TeapotBakesUnderASkyAndValidates) {
   const fs::path out = tempDir() / "teapot.glb";
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "teapot.bpt").string(), "-o", out.string(), "--sky",

@@ -120,7 +120,9 @@ std::vector<std::pair<Vec3, Vec3>> readProbes(const std::string& path, uint64_t 
 
 // Every output's folder must exist before the work starts: a typo in --report should not cost a
 // solve (and then nothing would be written anyway: outputs are all or nothing). No two outputs may
-// be one file, and only -o may be the input.
+// be one file, and none may be the input: a baked file has unlit materials and vertex colors in
+// place of the asset's own, and a bake over its input would lose them (hard links and symlinks
+// to it included: the paths are compared as the files they resolve to).
 void checkOutputFolders(const std::string& input, const std::vector<std::pair<const char*, std::string>>& outputs) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -128,9 +130,9 @@ void checkOutputFolders(const std::string& input, const std::vector<std::pair<co
   for (size_t i = 0; i < outputs.size(); ++i) {
     const auto& [option, path] = outputs[i];
     if (path.empty()) continue;
-    // Only -o may name the input (a deliberate in-place bake); a report or lightmap over it is a slip.
-    if (i > 0 && same(path, input))
-      throw Error(ExitCode::kUsage, std::string("radbake: ") + option + " " + path + " is the input; it would be overwritten");
+    if (same(path, input) || (fs::exists(path, ec) && fs::equivalent(path, input, ec)))
+      throw Error(ExitCode::kUsage, std::string("radbake: ") + option + " " + path +
+                                        " is the input; it would be overwritten (write the bake to another file)");
     for (size_t j = 0; j < i; ++j)
       if (!outputs[j].second.empty() && same(path, outputs[j].second))
         throw Error(ExitCode::kUsage, std::string("radbake: ") + option + " " + path + " is also the " + outputs[j].first + " file");
@@ -315,7 +317,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   }
   progress.stage("export");
   // Every output is gathered first and written all at once at the end (all or nothing); the glTF
-  // goes last, so that when -o names the input it is replaced only after everything else is in place.
+  // goes last, so that it never refers to a lightmap that is not yet in place.
   std::vector<std::pair<std::string, std::string>> files;
   const ExportSummary summary =
       exportGltf(options.output, scene, mesh, solution.vertexRadiance,

@@ -455,14 +455,15 @@ def build(root):
                  expect="(?i)^(?=.*buffer 0\\b).*regular", bullet="C: /dev/zero URI with --allow-outside-paths")
 
     # ---- D. no data lost on failure
+    # A bake replaces the asset's materials: no output may be the input, however it is spelled.
     write_gltf(folder("d_output_is_input"), lit_scene(), name="scene.glb", mode="glb")
-    case("d_output_is_input", "D: -o the input .glb, --report into a missing folder",
-         ["bake", "{case}/scene.glb", "-o", "{case}/scene.glb", "--report", "{out}/missing/r.json"], 4,
-         "(?i)missing|r\\.json|report|director")
-    # Failing late (after the solve) must leave an in-place input untouched too.
-    write_gltf(folder("d_output_is_input_strict"), closed_box(rho=1.0), name="scene.glb", mode="glb")
-    case("d_output_is_input_strict", "D: -o the input .glb, the solve fails late (--strict, no convergence)",
-         ["bake", "{case}/scene.glb", "-o", "{case}/scene.glb", "--strict", "--report", "{case}/r.json"], 5, "(?i)converg")
+    case("d_output_is_input", "D: -o the input .glb",
+         ["bake", "{case}/scene.glb", "-o", "{case}/scene.glb", "--report", "{out}/r.json"], 1,
+         "(?i)-o .*scene\\.glb is the input")
+    write_gltf(folder("d_output_is_input_spelled"), lit_scene(), name="scene.glb", mode="glb")
+    case("d_output_is_input_spelled", "D: -o the input .glb through ./ and ..",
+         ["bake", "{case}/scene.glb", "-o", "{case}/./../d_output_is_input_spelled/scene.glb"], 1,
+         "(?i)-o .*scene\\.glb is the input")
     write_gltf(folder("d_probe_out_is_input"), lit_scene())
     write(os.path.join(folder("d_probe_out_is_input"), "probe.csv"), "x,y,z,nx,ny,nz\n0,0,0,0,1,0\n")
     case("d_probe_out_is_input", "D: --probe-out names the input",
