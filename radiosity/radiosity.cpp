@@ -584,20 +584,18 @@ std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<NodeMoment>
         const NodeMoment& source = moment[h.links[e].source];
         const Vec3 w = source.centroid - at;
         const double d2 = dot(w, w), s = h.links[e].visible / (kPi * d2 * d2);
-        // ∂Φ/∂p = (1/π) [(w·M) (I − 4 w wᵀ / |w|²) + w Mᵀ] / |w|⁴: the bracket's first matrix is
-        // the same for the three channels.
-        std::array<double, 9> P;
-        if (!leaf)
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) P[3 * a + b] = (a == b ? 1.0 : 0.0) - 4 * w[a] * w[b] / d2;
+        // ∂Φ/∂p = (1/π) [(w·M) (I − 4 w wᵀ / |w|²) + w Mᵀ] / |w|⁴ = a I + w uᵀ, with a = s (w·M)
+        // and u = s M − (4 a / |w|²) w: a diagonal and one outer product per channel.
         for (int c = 0; c < 3; ++c) {
           const Vec3& m = source.m[c];
-          const double swm = s * dot(w, m);
-          field[k].phi[c] += w * -swm;
+          const double a = s * dot(w, m);
+          field[k].phi[c] += w * -a;
           if (leaf) continue;
+          const Vec3 u = m * s - w * (4 * a / d2);
           auto& J = field[k].jacobian[c];
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) J[3 * a + b] += swm * P[3 * a + b] + s * w[a] * m[b];
+          J[0] += w.x * u.x + a, J[1] += w.x * u.y, J[2] += w.x * u.z;
+          J[3] += w.y * u.x, J[4] += w.y * u.y + a, J[5] += w.y * u.z;
+          J[6] += w.z * u.x, J[7] += w.z * u.y, J[8] += w.z * u.z + a;
         }
       }
     }
