@@ -93,11 +93,13 @@ constexpr uint32_t kNoLeaf = UINT32_MAX;  // a vertex that gathers nothing is in
 struct Hierarchical {
   ClusterTree source, receiver;                     // over patches, over vertices
   std::vector<std::array<double, 4>> shapeAreas;    // per patch, A_j = ∫ N_j dA (the moments)
-  std::vector<size_t> start;                        // near entries per vertex (CSR)
-  std::vector<uint32_t> column;
-  std::vector<float> value;  // 7 digits: more than the near kernels are integrated to (--accuracy/10)
-  std::vector<size_t> linkStart;                    // links per receiver node (CSR)
-  std::vector<ClusterLink> links;
+  // The near entries per vertex, (column, value) sorted by column; the value in 7 digits, more than
+  // the near kernels are integrated to (--accuracy/10). And the links per receiver node. Both kept
+  // as the walk built them: gathered into one array each they were held twice at the end (at 422k
+  // patches, 260M entries and 177M links: the rows alone 2 GiB more at the peak).
+  std::vector<std::vector<std::pair<uint32_t, float>>> near;
+  std::vector<std::vector<ClusterLink>> links;
+  size_t nearEntries = 0, linkCount = 0;
   std::vector<uint32_t> leafOf;                     // vertex → its leaf in the receiver tree
   std::vector<double> rowScale;                     // closure (0: dark or facing nothing)
   std::vector<Vec3> normal;                         // receiving normal per vertex
@@ -105,8 +107,8 @@ struct Hierarchical {
   size_t nearRays = 0;  // the (vertex, patch) pairs' rays
   double worstError = 0;  // the largest Σ of link error estimates over one vertex's links
   size_t bytes() const {
-    return start.size() * sizeof(size_t) + column.size() * sizeof(uint32_t) + value.size() * sizeof(float) +
-           linkStart.size() * sizeof(size_t) + links.size() * sizeof(ClusterLink) +
+    return near.size() * sizeof(near[0]) + nearEntries * sizeof(near[0][0]) + links.size() * sizeof(links[0]) +
+           linkCount * sizeof(ClusterLink) +
            (source.nodes.size() + receiver.nodes.size()) * sizeof(TreeNode) +
            (source.order.size() + receiver.order.size()) * sizeof(uint32_t) + shapeAreas.size() * sizeof(shapeAreas[0]);
   }
@@ -580,10 +582,10 @@ std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<NodeMoment>
     for (size_t k = range.begin(); k != range.end(); ++k) {
       const bool leaf = R.nodes[k].count == 1;  // a leaf's J is never pushed anywhere
       const Vec3 at = R.nodes[k].centroid;
-      for (size_t e = h.linkStart[k]; e < h.linkStart[k + 1]; ++e) {
-        const NodeMoment& source = moment[h.links[e].source];
+      for (const ClusterLink& link : h.links[k]) {
+        const NodeMoment& source = moment[link.source];
         const Vec3 w = source.centroid - at;
-        const double d2 = dot(w, w), s = h.links[e].visible / (kPi * d2 * d2);
+        const double d2 = dot(w, w), s = link.visible / (kPi * d2 * d2);
         // ∂Φ/∂p = (1/π) [(w·M) (I − 4 w wᵀ / |w|²) + w Mᵀ] / |w|⁴ = a I + w uᵀ, with a = s (w·M)
         // and u = s M − (4 a / |w|²) w: a diagonal and one outer product per channel.
         for (int c = 0; c < 3; ++c) {
@@ -726,9 +728,9 @@ ClusterTree patchTree(const PatchMesh& mesh, const std::vector<uint32_t>& patche
 }
 
 // What the walks keep, against RadiosityOptions::transportMemoryBytes, counted as they go. A near
-// entry costs 8 bytes in its vertex's packed row (a walk task packs its vertices' rows when it
-// ends: the rows being filled are a task's, two at a time) and 8 once in the transport (the two
-// coexist while it is built): 16. A link costs its 8.
+// entry costs 16 bytes while its task fills its vertex's row (column and double value) and 8 once
+// the task ends and packs it (the rows being filled are a task's, two tasks at a time); it is
+// counted at 16, which leaves the budget a margin. A link costs its 8.
 constexpr size_t kNearEntryBytes = 16;
 struct MemoryBudget {
   size_t limit = SIZE_MAX;
@@ -1180,7 +1182,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   KernelOptions kernelOptions;
   kernelOptions.relativeTolerance = std::max(options.kernelTolerance, options.accuracy * kNearKernelShare);
   std::vector<Row> near(nv);
-  std::vector<std::vector<std::pair<uint32_t, float>>> packed(nv);
+  h.near.resize(nv);
   Ticker ticker(options.progress, nv, progressFrom, 0.8);
   MemoryBudget memory;
   memory.limit = options.transportMemoryBytes;
@@ -1199,22 +1201,15 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
         for (uint32_t k = task.first; k < task.first + task.count; ++k) {
           const uint32_t v = groups.tree.order[k];
           canonicalize(near[v]);
-          packed[v].reserve(near[v].size());
-          for (const auto& [col, val] : near[v]) packed[v].emplace_back(col, float(val));
+          h.near[v].reserve(near[v].size());
+          for (const auto& [col, val] : near[v]) h.near[v].emplace_back(col, float(val));
           Row().swap(near[v]);
         }
       },
       ticker, h.rays);
   h.nearRays = pairRays.load();
 
-  h.start.assign(1, 0);
-  for (size_t v = 0; v < nv; ++v) h.start.push_back(h.start.back() + packed[v].size());
-  h.column.resize(h.start.back());
-  h.value.resize(h.start.back());
-  for (size_t v = 0; v < nv; ++v) {
-    for (size_t e = 0; e < packed[v].size(); ++e) std::tie(h.column[h.start[v] + e], h.value[h.start[v] + e]) = packed[v][e];
-    std::vector<std::pair<uint32_t, float>>().swap(packed[v]);
-  }
+  for (const auto& row : h.near) h.nearEntries += row.size();
   // The error estimate of what a vertex gathers far: its groups' link estimates, leaf to root.
   for (size_t v = 0; v < nv; ++v) {
     double error = 0;
@@ -1223,15 +1218,11 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   }
   h.receiver = std::move(groups.tree);
   h.leafOf = std::move(groups.leafOf);
-  h.linkStart.assign(1, 0);
-  size_t linkCount = 0;
-  for (const auto& list : links) linkCount += list.size();
-  h.links.reserve(linkCount);
   for (auto& list : links) {
-    h.links.insert(h.links.end(), list.begin(), list.end());
-    h.linkStart.push_back(h.links.size());
-    std::vector<ClusterLink>().swap(list);
+    list.shrink_to_fit();  // one list at a time: the slack of push_back's doubling goes
+    h.linkCount += list.size();
   }
+  h.links = std::move(links);
 
   // Closure (as applyClosure does for exact rows): each row's total, near entries plus the far
   // share n_i · Φ of L ≡ 1 (whose moments are Σ A n), scaled to 1 where the rules say.
@@ -1243,7 +1234,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   for (size_t v = 0; v < nv; ++v) {
     if (h.rowScale[v] == 0) continue;
     double sum = farOne[v].x;
-    for (size_t e = h.start[v]; e < h.start[v + 1]; ++e) sum += h.value[e];
+    for (const auto& entry : h.near[v]) sum += entry.second;
     if (closure.scales(v, sum)) h.rowScale[v] = 1 / sum;
   }
   return h;
@@ -1398,7 +1389,7 @@ Gather hierarchicalGather(const Hierarchical& H, const PatchMesh& mesh) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, gathered.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t i = range.begin(); i != range.end(); ++i) {
         Vec3 h = far[i];
-        for (size_t e = H.start[i]; e < H.start[i + 1]; ++e) h += L[H.column[e]] * H.value[e];
+        for (const auto& [column, value] : H.near[i]) h += L[column] * value;
         gathered[i] = h * H.rowScale[i];
       }
     });
@@ -1604,8 +1595,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       if (hierarchical) {
         H = hierarchicalTransport(mesh, occlusion, options, transportFrom, *recv, *closure, std::move(groups));
         gather = hierarchicalGather(H, mesh);
-        solution.matrixEntries = H.value.size();
-        solution.farLinks = H.links.size();
+        solution.matrixEntries = H.nearEntries;
+        solution.farLinks = H.linkCount;
         solution.clusterRays += H.rays;
         solution.nearRays += H.nearRays;
         solution.clusters = H.source.nodes.size() + H.receiver.nodes.size();
