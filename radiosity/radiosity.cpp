@@ -487,16 +487,23 @@ std::array<double, 4> pairVisibility(const Sight& sight, const Vec3& n, const st
 // `row`. `ignore` is i's ignore list with one free slot at its end for the source. A pair fainter
 // than `faint` gets one visibility ray (pairVisibility; 0: the exact transport's five probes always).
 // Returns the rays it traced.
+// Whether a vertex at p (receiving normal nrm) takes anything from the quad q (normal m) in K: some
+// corner above its horizon, and p not behind q's plane by more than `epsilon` (a vertex of a curved
+// surface off its own non-planar patch's plane, whose limit would be ill-conditioned). The sky
+// pass's cover takes the same rejections (skyCover).
+bool kernelReaches(const Vec3& p, const Vec3& nrm, const std::array<Vec3, 4>& q, const Vec3& m, double epsilon) {
+  bool above = false;
+  for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
+  return above && !(dot(m, p - q[0]) < -epsilon);
+}
+
 size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, const KernelOptions& kernelOptions,
                       size_t i, size_t source, std::vector<uint32_t>& ignore, Row& row, double faint = 0) {
   const Vec3 p = mesh.positions[i], nrm = recv.normal[i], a = recv.approach[i];
   const Patch& patch = mesh.patches[source];
   if (recv.isOwnTwin(i, uint32_t(source))) return 0;  // a side never sees its own twin
   const auto q = corners(mesh, patch);
-  // Cheap rejections: source entirely below the receiver's horizon, or receiver behind it.
-  bool above = false;
-  for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
-  if (!above || dot(patch.normal, p - q[0]) < -occlusion.epsilon()) return 0;
+  if (!kernelReaches(p, nrm, q, patch.normal, occlusion.epsilon())) return 0;
   // Visibility before the kernel: a hidden pair costs its probe rays and no kernel (in a room
   // of self-occluding Suzannes, 39.5M of 48.7M kernels were computed for hidden pairs).
   // A crease contribution sits at the receiver itself: nothing can come between.
@@ -1088,11 +1095,7 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
     std::swap(q[1], q[3]);         // vertex moves but stays consecutive, which the factor accepts)
     normal = -normal;
   }
-  // addPatchKernel's rejections: all below the horizon, or behind the plane (a vertex of a curved
-  // surface off its own non-planar patch's plane, whose limit would be ill-conditioned).
-  bool above = false;
-  for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
-  if (!above || dot(normal, p - q[0]) < -occlusion.epsilon()) return 0;
+  if (!kernelReaches(p, nrm, q, normal, occlusion.epsilon())) return 0;
   auto sum = [](const std::array<double, 4>& k, const std::array<double, 4>& weight) {
     return k[0] * weight[0] + k[1] * weight[1] + k[2] * weight[2] + k[3] * weight[3];
   };
@@ -1106,6 +1109,14 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
   return sum(vertexQuadKernel(p, nrm, approach, q, kernel), vis);
 }
 
+// The hierarchical walks' near (vertex, patch) kernels: to a share of the walk's accuracy, never
+// finer than the exact transport's tolerance (hierarchicalTransport says why).
+KernelOptions nearKernelOptions(double kernelTolerance, double accuracy) {
+  KernelOptions options;
+  options.relativeTolerance = std::max(kernelTolerance, accuracy * kNearKernelShare);
+  return options;
+}
+
 // The sky fractions with the cluster walk (cover mode): near patches exactly (skyCover), far
 // clusters as n · w |w · Σ A n| / (π |w|⁴) per vertex, w from the vertex to the cluster's centroid.
 std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
@@ -1116,8 +1127,7 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
   for (size_t p = 0; p < mesh.patches.size(); ++p)
     if (!mesh.patches[p].backSide) front.push_back(uint32_t(p));
   const ClusterTree tree = patchTree(mesh, front, closure);
-  KernelOptions kernel;  // as the transport's near kernels (hierarchicalTransport), at this pass's accuracy
-  kernel.relativeTolerance = std::max(kernelTolerance, accuracy * kNearKernelShare);
+  const KernelOptions kernel = nearKernelOptions(kernelTolerance, accuracy);  // at this pass's accuracy
   std::vector<double> covered(nv, 0.0);
   const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy, memory};
   std::vector<double> nodeError;  // the cover pass's own estimate is not reported
@@ -1179,8 +1189,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   // graded quadrature (KernelIntegrator) was a fifth of the engine part's time at 1e-6 (12–15% less
   // time at 1e-4 on the Cornell box, the Blender room and the engine part, errors against exact
   // unchanged to 0.001%).
-  KernelOptions kernelOptions;
-  kernelOptions.relativeTolerance = std::max(options.kernelTolerance, options.accuracy * kNearKernelShare);
+  const KernelOptions kernelOptions = nearKernelOptions(options.kernelTolerance, options.accuracy);
   std::vector<Row> near(nv);
   h.near.resize(nv);
   Ticker ticker(options.progress, nv, progressFrom, 0.8);
