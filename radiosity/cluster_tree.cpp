@@ -15,7 +15,7 @@ ClusterTree buildClusterTree(const std::vector<TreeItem>& items) {
   for (size_t p = 0; p < n; ++p) {
     Vec3 c{};
     for (int k = 0; k < items[p].pointCount; ++k) c += items[p].points[k];
-    centre[p] = c / items[p].pointCount;
+    centre[p] = items[p].centre ? *items[p].centre : c / items[p].pointCount;
   }
   std::vector<uint8_t> bin(n);  // dominant axis and sign of the normal: 0..5
   for (size_t p = 0; p < n; ++p) {

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "core/core.h"
@@ -24,6 +25,9 @@ struct TreeItem {
   Vec3 normal;
   double area = 1;
   bool enclosed = false;  // inside a closed room (Closure)
+  // Where the item sits, if not the mean of its points: a receiving patch's area centroid (the
+  // constant method), where a linear field takes its mean over the patch.
+  std::optional<Vec3> centre;
 };
 
 struct TreeNode {

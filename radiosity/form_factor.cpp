@@ -602,7 +602,7 @@ double quadratureQuadFactor(const Vec3& p, const Vec3& n, const std::array<Vec3,
   return integ.total;
 }
 
-double patchPatchFactor(const Vec3* from, int fromCount, const Vec3* to, int toCount) {
+double patchPatchFactor(const Vec3* from, int fromCount, const Vec3* to, int toCount, double change) {
   Polygon a, b;
   if (!makePolygon(from, fromCount, a) || !makePolygon(to, toCount, b)) return 0;
   const double areaA = polygonArea(a.v.data(), static_cast<int>(a.v.size()));
@@ -713,7 +713,7 @@ double patchPatchFactor(const Vec3* from, int fromCount, const Vec3* to, int toC
       // Double-exponential convergence: the error of the finer level is of
       // the order of the square of the relative change (1e-8 -> ~1e-16);
       // observed 1e-9..1e-10 changes at h = 1/8 with ~1e-15 actual error.
-      if (diff <= 1e-8 * std::abs(cur)) break;
+      if (diff <= change * std::abs(cur)) break;
     }
     total += cur;
   }
@@ -763,7 +763,9 @@ double constantPatchFactor(const std::array<Vec3, 4>& from, const std::array<Vec
   }
   const double gap = length(cb - ca) - ra - rb;
   const double ratio = gap / (2 * ra);
-  if (!(ratio >= 1)) return patchPatchFactor(from.data(), 4, to.data(), 4);
+  // Near: tanh-sinh, to a relative change of a hundredth of the tolerance (its error is about the
+  // change squared), never finer than 1e-8.
+  if (!(ratio >= 1)) return patchPatchFactor(from.data(), 4, to.data(), 4, std::max(1e-8, relativeTolerance * 1e-2));
   // Far apart: the point factor is smooth over `from`; a tensor Gauss rule of the order the
   // kernel rule gives for this distance/size ratio.
   const Vec3 normal = normalize(cross(from[2] - from[0], from[3] - from[1]));

@@ -101,10 +101,10 @@ int gaussOrderForRatio(double ratio, double relativeTolerance);
 // (its limit where A touches B) is integrated over each piece by tensor
 // tanh-sinh quadrature, whose nodes cluster at the piece's edges where the
 // integrand has its x log x behaviour; levels are refined until the relative
-// change is below 1e-8 (the finer level is then good to ~1e-13). A and B are
+// change is below `change` (1e-8: the finer level is then good to ~1e-13). A and B are
 // planar convex polygons (triangles stored as quads with a repeated vertex
 // included).
-double patchPatchFactor(const Vec3* from, int fromCount, const Vec3* to, int toCount);
+double patchPatchFactor(const Vec3* from, int fromCount, const Vec3* to, int toCount, double change = 1e-8);
 
 // F(A -> B) for the constant-patch method: patchPatchFactor when the quads are
 // closer than A's size, else tensor Gauss-Legendre over A of the analytic point

@@ -91,8 +91,9 @@ struct ClusterLink {
 constexpr uint32_t kNoLeaf = UINT32_MAX;  // a vertex that gathers nothing is in no group
 
 struct Hierarchical {
-  ClusterTree source, receiver;                     // over patches, over vertices
-  std::vector<std::array<double, 4>> shapeAreas;    // per patch, A_j = ∫ N_j dA (the moments)
+  ClusterTree source, receiver;                     // over patches, over the unknowns
+  bool perPatch = false;  // the unknowns are patches (constant method): a patch's moment is n A L
+  std::vector<std::array<double, 4>> shapeAreas;    // bilinear: per patch, A_j = ∫ N_j dA (the moments)
   // The near entries per vertex, (column, value) sorted by column; the value in 7 digits, more than
   // the near kernels are integrated to (--accuracy/10). And the links per receiver node. Both kept
   // as the walk built them: gathered into one array each they were held twice at the end (at 422k
@@ -251,7 +252,8 @@ Vec3 pointOnPatch(const std::array<Vec3, 4>& q, double s, double t) {
 //  * ignore: the patches around it and their double-sided twins, which never block its rays.
 //  * twins: the twins of its own patches, which it never sees (a side does not light its twin).
 struct Receivers {
-  std::vector<Vec3> normal, approach, origin;  // normal: the receiving orientation (see receivers())
+  // point: where the receiver is (a vertex; for the constant method a patch's area centroid).
+  std::vector<Vec3> point, normal, approach, origin;  // normal: the receiving orientation (see receivers())
   std::vector<size_t> start;     // CSR over vertices
   std::vector<uint32_t> ignore;  // own patches first, then their twins
   std::vector<uint32_t> ownCount;
@@ -307,6 +309,7 @@ Bounds sceneBounds(const PatchMesh& mesh) {
 Receivers receivers(const PatchMesh& mesh, double offset) {
   const size_t n = mesh.positions.size();
   Receivers r;
+  r.point = mesh.positions;
   std::vector<std::vector<uint32_t>> own(n);
   std::vector<Vec3> toCentroids(n);
   for (size_t i = 0; i < mesh.patches.size(); ++i) {
@@ -379,6 +382,46 @@ Receivers receivers(const PatchMesh& mesh, double offset) {
     r.start.push_back(r.ignore.size());
   }
   return r;
+}
+
+// The constant method's receivers: one per patch, at its area centroid (where a linear field takes
+// its mean over the patch: the far field's value for the patch), facing its normal; rays start
+// just off its bilinear centre, as the exact transport's do (constantPairFactor), and step over
+// the patch and its twin.
+Receivers patchReceivers(const PatchMesh& mesh, double offset) {
+  const size_t n = mesh.patches.size();
+  Receivers r;
+  r.point.resize(n);
+  r.normal.resize(n);
+  r.approach.resize(n);
+  r.origin.resize(n);
+  r.ownCount.assign(n, 1);
+  r.start.assign(1, 0);
+  for (size_t k = 0; k < n; ++k) {
+    const Patch& patch = mesh.patches[k];
+    const auto q = corners(mesh, patch);
+    // Two triangles (the second empty for a triangle patch), each at its own centroid.
+    const double a0 = length(cross(q[1] - q[0], q[2] - q[0])), a1 = length(cross(q[2] - q[0], q[3] - q[0]));
+    r.point[k] = a0 + a1 > 0 ? ((q[0] + q[1] + q[2]) * a0 + (q[0] + q[2] + q[3]) * a1) / (3 * (a0 + a1)) : q[0];
+    r.normal[k] = r.approach[k] = patch.normal;
+    r.origin[k] = pointOnPatch(q, 0, 0) + patch.normal * offset;
+    r.ignore.push_back(uint32_t(k));
+    if (patch.twin >= 0) r.ignore.push_back(uint32_t(patch.twin));
+    r.start.push_back(r.ignore.size());
+  }
+  return r;
+}
+
+// The receiver tree's items, one per unknown: a vertex (a point with its receiving normal) or a
+// patch (its corners and area, so that a group's radius covers what its patches average over).
+std::vector<TreeItem> receiverItems(const PatchMesh& mesh, const Receivers& recv, const Closure& closure, Method method) {
+  std::vector<TreeItem> items(recv.point.size());
+  for (size_t v = 0; v < items.size(); ++v) {
+    const bool enclosed = closure.rows[v];
+    if (method == Method::kBilinear) items[v] = {{recv.point[v]}, 1, recv.normal[v], 1.0, enclosed, {}};
+    else items[v] = {corners(mesh, mesh.patches[v]), 4, recv.normal[v], mesh.patches[v].area, enclosed, recv.point[v]};
+  }
+  return items;
 }
 
 // What a receiving point sees. Embree answers for every patch but the receiver's own and their
@@ -561,7 +604,8 @@ std::vector<NodeMoment> clusterMoments(const Hierarchical& h, const PatchMesh& m
       const uint32_t p = tree.order[node.first];
       const Patch& patch = mesh.patches[p];
       Vec3 s{};
-      for (int j = 0; j < 4; ++j) s += L[patch.v[j]] * h.shapeAreas[p][j];
+      if (h.perPatch) s = L[p] * patch.area;
+      else for (int j = 0; j < 4; ++j) s += L[patch.v[j]] * h.shapeAreas[p][j];
       moment[k].m = {patch.normal * s.x, patch.normal * s.y, patch.normal * s.z};
     }
   });
@@ -683,25 +727,26 @@ struct ReceiverGroups {
   std::vector<uint32_t> tasks;   // subtrees of at most kTaskVertices vertices, in tree order
 };
 
-// Whether vertex v gathers anything: not in a dark room, and something of the scene in front of it
+// Whether receiver v gathers anything: not in a dark room, and something of the scene in front of it
 // (the outside of a room's walls faces nothing). The others stay out of the receiver tree.
-std::vector<bool> gatheringVertices(const PatchMesh& mesh, const Receivers& recv, const Closure& closure, double epsilon) {
+std::vector<bool> gatheringReceivers(const PatchMesh& mesh, const Receivers& recv, const Closure& closure, double epsilon) {
   const Bounds bounds = sceneBounds(mesh);
-  std::vector<bool> gathers(mesh.positions.size());
+  std::vector<bool> gathers(recv.point.size());
   for (size_t v = 0; v < gathers.size(); ++v)
-    gathers[v] = !closure.dark[v] && !facesNothing(bounds, mesh.positions[v], recv.normal[v], epsilon);
+    gathers[v] = !closure.dark[v] && !facesNothing(bounds, recv.point[v], recv.normal[v], epsilon);
   return gathers;
 }
 
-ReceiverGroups receiverGroups(const PatchMesh& mesh, const Receivers& recv, const Closure& closure,
-                              const std::vector<bool>& gathers) {
+// The receiver tree over `items` (one per unknown: a vertex, or for the constant method a patch),
+// those that gather anything.
+ReceiverGroups receiverGroups(const std::vector<TreeItem>& all, const std::vector<bool>& gathers) {
   ReceiverGroups groups;
-  const size_t nv = mesh.positions.size();
+  const size_t nv = all.size();
   std::vector<TreeItem> items;
   std::vector<uint32_t> vertexOf;
   for (size_t v = 0; v < nv; ++v)
     if (gathers[v]) {
-      items.push_back({{mesh.positions[v]}, 1, recv.normal[v], 1.0, bool(closure.rows[v])});
+      items.push_back(all[v]);
       vertexOf.push_back(uint32_t(v));
     }
   groups.tree = buildClusterTree(items);
@@ -729,7 +774,7 @@ ClusterTree patchTree(const PatchMesh& mesh, const std::vector<uint32_t>& patche
   std::vector<TreeItem> items(patches.size());
   for (size_t k = 0; k < patches.size(); ++k) {
     const Patch& patch = mesh.patches[patches[k]];
-    items[k] = {corners(mesh, patch), 4, patch.normal, patch.area, bool(closure.patches[patches[k]])};
+    items[k] = {corners(mesh, patch), 4, patch.normal, patch.area, bool(closure.patches[patches[k]]), {}};
   }
   return buildClusterTree(items);
 }
@@ -824,7 +869,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           const double side = dot(m, w.recv.origin[v] - centre[item]);
           if (!w.cover && side <= 0) continue;  // shows v its back (in cover mode it covers)
           const Vec3 to = centre[item] + m * (side > 0 ? lift : -lift);
-          if (dot(w.recv.normal[v], to - w.mesh.positions[v]) <= 0) continue;  // below v's horizon
+          if (dot(w.recv.normal[v], to - w.recv.point[v]) <= 0) continue;  // below v's horizon
           segments.push_back({w.recv.origin[v], to, w.recv.ignored(v)});
           segmentVertex.push_back(v);
         }
@@ -955,7 +1000,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                   // asked instead, and if there is none the ray counts as through.
                   auto sends = [&] {
                     target = centre[item] + w.mesh.patches[w.patchOf[item]].normal * (away ? -lift : lift);
-                    return (!flat || dot(w.recv.normal[v], target - w.mesh.positions[v]) > 0) &&
+                    return (!flat || dot(w.recv.normal[v], target - w.recv.point[v]) > 0) &&
                            (!turning || dot(w.mesh.patches[w.patchOf[item]].normal, w.recv.origin[v] - centre[item]) > 0);
                   };
                   bool found = sends();
@@ -1117,17 +1162,24 @@ KernelOptions nearKernelOptions(double kernelTolerance, double accuracy) {
   return options;
 }
 
+// A hierarchical walk's exact (receiver, patch) pairs. NearPair appends what receiver v takes from
+// `patch` to `row` (the bilinear method's K_ij per corner vertex j, the constant method's F_vl) and
+// returns the rays it traced; CoverPair returns the share of v's hemisphere `patch` covers and
+// counts its rays. `ignore` is v's ignore list with a free last slot.
+using NearPair = std::function<size_t(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row)>;
+using CoverPair = std::function<double(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays)>;
+
 // The sky fractions with the cluster walk (cover mode): near patches exactly (skyCover), far
 // clusters as n · w |w · Σ A n| / (π |w|⁴) per vertex, w from the vertex to the cluster's centroid.
 std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
                                              const Closure& closure, const ReceiverGroups& groups, double accuracy,
-                                             double kernelTolerance, MemoryBudget& memory, Ticker& ticker, size_t& rays, size_t& nearRays) {
-  const size_t nv = mesh.positions.size();
+                                             const CoverPair& coverPair, MemoryBudget& memory, Ticker& ticker, size_t& rays,
+                                             size_t& nearRays) {
+  const size_t nv = recv.point.size();
   std::vector<uint32_t> front;  // a double-sided surface covers once
   for (size_t p = 0; p < mesh.patches.size(); ++p)
     if (!mesh.patches[p].backSide) front.push_back(uint32_t(p));
   const ClusterTree tree = patchTree(mesh, front, closure);
-  const KernelOptions kernel = nearKernelOptions(kernelTolerance, accuracy);  // at this pass's accuracy
   std::vector<double> covered(nv, 0.0);
   const WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy, memory};
   std::vector<double> nodeError;  // the cover pass's own estimate is not reported
@@ -1136,7 +1188,7 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
       setup, [&](uint32_t v) { return !closure.rows[v]; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
         size_t traced = 0;
-        covered[v] += skyCover(mesh, occlusion, recv, kernel, v, patch, ignore, accuracy * kFaintPairShare, traced);
+        covered[v] += coverPair(v, patch, ignore, traced);
         pairRays.fetch_add(traced, std::memory_order_relaxed);
         return size_t(0);
       },
@@ -1155,7 +1207,7 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
       double cover = covered[v];
       for (int32_t k = int32_t(groups.leafOf[v]); k >= 0; k = parent[k])
         for (const ClusterLink& link : links[k]) {
-          const Vec3 w = tree.nodes[link.source].centroid - mesh.positions[v];
+          const Vec3 w = tree.nodes[link.source].centroid - recv.point[v];
           const double d2 = dot(w, w);
           cover += link.visible * dot(recv.normal[v], w) * std::abs(dot(w, tree.nodes[link.source].areaNormal)) / (kPi * d2 * d2);
         }
@@ -1170,26 +1222,22 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
 // receiver tree and leaves move from `groups` into the result once the walk is done (a copy held
 // beside them during the walk was about 176 bytes per gathering vertex).
 Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
-                                   double progressFrom, const Receivers& recv, Closure& closure, ReceiverGroups&& groups) {
+                                   double progressFrom, const Receivers& recv, Closure& closure, ReceiverGroups&& groups,
+                                   const NearPair& nearPair) {
   Hierarchical h;
-  const size_t nv = mesh.positions.size(), np = mesh.patches.size();
+  const size_t nv = recv.point.size(), np = mesh.patches.size();
+  h.perPatch = options.method == Method::kConstant;
   std::vector<uint32_t> all(np);
-  h.shapeAreas.resize(np);
+  if (!h.perPatch) h.shapeAreas.resize(np);
   for (size_t p = 0; p < np; ++p) {
     all[p] = uint32_t(p);
-    h.shapeAreas[p] = shapeFunctionAreas(corners(mesh, mesh.patches[p]));
+    if (!h.perPatch) h.shapeAreas[p] = shapeFunctionAreas(corners(mesh, mesh.patches[p]));
   }
   h.source = patchTree(mesh, all, closure);
   h.normal = recv.normal;
   h.rowScale.assign(nv, 1.0);
   for (size_t v = 0; v < nv; ++v)
     if (groups.leafOf[v] == kNoLeaf) h.rowScale[v] = 0;  // gathers nothing
-  // The near kernels to a tenth of --accuracy, not to the exact transport's 1e-6: a row's near
-  // entries then err by at most that share of its total, below what each link may, and the
-  // graded quadrature (KernelIntegrator) was a fifth of the engine part's time at 1e-6 (12–15% less
-  // time at 1e-4 on the Cornell box, the Blender room and the engine part, errors against exact
-  // unchanged to 0.001%).
-  const KernelOptions kernelOptions = nearKernelOptions(options.kernelTolerance, options.accuracy);
   std::vector<Row> near(nv);
   h.near.resize(nv);
   Ticker ticker(options.progress, nv, progressFrom, 0.8);
@@ -1202,8 +1250,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
       setup, [&](uint32_t v) { return h.rowScale[v] != 0; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
         const size_t before = near[v].size();
-        pairRays.fetch_add(addPatchKernel(mesh, occlusion, recv, kernelOptions, v, patch, ignore, near[v], options.accuracy * kFaintPairShare),
-                           std::memory_order_relaxed);
+        pairRays.fetch_add(nearPair(v, patch, ignore, near[v]), std::memory_order_relaxed);
         return (near[v].size() - before) * kNearEntryBytes;
       },
       [&](const TreeNode& task) {  // its vertices' rows are complete: packed, at 8 bytes an entry
@@ -1249,8 +1296,41 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   return h;
 }
 
-// Constant method: row k holds the patch-to-patch factors F_kl (exact near, Gauss far: see
-// constantPatchFactor), times a visible fraction from rays between the two patches.
+// Constant method: F_kl (exact near, Gauss far to `tolerance`: see constantPatchFactor) times a
+// visible fraction from rays between the two patches; 0 unless each has something in front of the
+// other. Counts its rays.
+double constantPairFactor(const PatchMesh& mesh, const Occlusion& occlusion, size_t k, size_t l, double tolerance, size_t& rays) {
+  const Patch &pk = mesh.patches[k], &pl = mesh.patches[l];
+  const auto qk = corners(mesh, pk), ql = corners(mesh, pl);
+  bool facing = false, front = false;
+  for (const Vec3& c : ql) facing |= dot(pk.normal, c - qk[0]) > occlusion.epsilon();
+  for (const Vec3& c : qk) front |= dot(pl.normal, c - ql[0]) > occlusion.epsilon();
+  if (!facing || !front) return 0;
+  const double f = constantPatchFactor(qk, ql, tolerance);
+  if (!(f > 0)) return 0;
+  // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
+  // rays between inner points of both patches.
+  // The two patches and the receiver's twin never block. (The source's twin does: a receiver
+  // sees the back of a double-sided surface only from the back.)
+  const Vec3 lift = pk.normal * (occlusion.epsilon() * 10);
+  const uint32_t pair[3] = {uint32_t(k), uint32_t(l), pk.twin >= 0 ? uint32_t(pk.twin) : uint32_t(k)};
+  const uint32_t self[1] = {uint32_t(k)};
+  auto ray = [&](int a, int b) {
+    ++rays;
+    const Sight sight{occlusion, mesh, pointOnPatch(qk, kProbe[a][0], kProbe[a][1]) + lift, pair, self};
+    return sight.visible(pointOnPatch(ql, kProbe[b][0], kProbe[b][1]) + pl.normal * (occlusion.epsilon() * 10));
+  };
+  int seen = 0;
+  for (int b = 0; b < 5; ++b) seen += ray(0, b);
+  if (seen == 5) return f;
+  if (seen == 0) return 0;
+  seen = 0;
+  for (int a = 0; a < 5; ++a)
+    for (int b = 0; b < 5; ++b) seen += ray(a, b);
+  return f * (seen / 25.0);
+}
+
+// Constant method: row k holds F_kl for every patch l (constantPairFactor).
 Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
                             std::shared_ptr<const Closure> closure) {
   Transport t;
@@ -1259,41 +1339,14 @@ Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, c
   const Bounds bounds = sceneBounds(mesh);
   t.build = [&mesh, &occlusion, tolerance, closure, bounds](size_t k, Row& row) {
     const Patch& pk = mesh.patches[k];
-    const auto qk = corners(mesh, pk);
     bool nothing = true;
-    for (const Vec3& c : qk) nothing = nothing && facesNothing(bounds, c, pk.normal, occlusion.epsilon());
+    for (const Vec3& c : corners(mesh, pk)) nothing = nothing && facesNothing(bounds, c, pk.normal, occlusion.epsilon());
     if (nothing) return;
-    const Vec3 lift = pk.normal * (occlusion.epsilon() * 10);
+    size_t rays = 0;  // not reported by the exact transport
     for (size_t l = 0; l < mesh.patches.size(); ++l) {
       if (l == k || closure->separates(k, l)) continue;
-      const Patch& pl = mesh.patches[l];
-      const auto ql = corners(mesh, pl);
-      bool facing = false, front = false;
-      for (const Vec3& c : ql) facing |= dot(pk.normal, c - qk[0]) > occlusion.epsilon();
-      for (const Vec3& c : qk) front |= dot(pl.normal, c - ql[0]) > occlusion.epsilon();
-      if (!facing || !front) continue;
-      const double f = constantPatchFactor(qk, ql, tolerance);
-      if (!(f > 0)) continue;
-      // Visible fraction: five rays from the receiver's centre first; if they disagree, 5×5
-      // rays between inner points of both patches.
-      // The two patches and the receiver's twin never block. (The source's twin does: a receiver
-      // sees the back of a double-sided surface only from the back.)
-      const uint32_t pair[3] = {uint32_t(k), uint32_t(l), pk.twin >= 0 ? uint32_t(pk.twin) : uint32_t(k)};
-      const uint32_t self[1] = {uint32_t(k)};
-      auto ray = [&](int a, int b) {
-        const Sight sight{occlusion, mesh, pointOnPatch(qk, kProbe[a][0], kProbe[a][1]) + lift, pair, self};
-        return sight.visible(pointOnPatch(ql, kProbe[b][0], kProbe[b][1]) + pl.normal * (occlusion.epsilon() * 10));
-      };
-      int seen = 0;
-      for (int b = 0; b < 5; ++b) seen += ray(0, b);
-      double vis = seen == 5 ? 1.0 : 0.0;
-      if (seen > 0 && seen < 5) {
-        seen = 0;
-        for (int a = 0; a < 5; ++a)
-          for (int b = 0; b < 5; ++b) seen += ray(a, b);
-        vis = seen / 25.0;
-      }
-      if (vis > 0) row.emplace_back(uint32_t(l), f * vis);
+      const double f = constantPairFactor(mesh, occlusion, k, l, tolerance, rays);
+      if (f > 0) row.emplace_back(uint32_t(l), f);
     }
   };
   return t;
@@ -1322,47 +1375,52 @@ std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion&
   return sky;
 }
 
+// The share of patch k's hemisphere that patch l covers, seen from either side (constant method):
+// l's factor from k times the share of five probes on it seen from k's centre. Counts its rays.
+double constantCover(const PatchMesh& mesh, const Occlusion& occlusion, size_t k, size_t l, double tolerance, size_t& rays) {
+  const Patch& pk = mesh.patches[k];
+  const auto qk = corners(mesh, pk);
+  const uint32_t twin = pk.twin >= 0 ? uint32_t(pk.twin) : uint32_t(k);
+  // Covering is geometry: a double-sided surface covers once (its front), and a patch's twin
+  // covers nothing of it.
+  if (l == k || l == twin || mesh.patches[l].backSide) return 0;
+  auto ql = corners(mesh, mesh.patches[l]);
+  // Nothing of l above k's plane, or k in l's plane: l covers nothing of k's hemisphere (the
+  // factor is 0; the transport's own rejections, without which the coplanar patches of a
+  // plate took most of the pass: 126 s against 26 s for the transport at 1,152 patches).
+  bool above = false, inPlane = true;
+  for (const Vec3& c : ql) above |= dot(pk.normal, c - qk[0]) > occlusion.epsilon();
+  for (const Vec3& c : qk) inPlane &= std::abs(dot(mesh.patches[l].normal, c - ql[0])) <= occlusion.epsilon();
+  if (!above || inPlane) return 0;
+  Vec3 toward = mesh.patches[l].normal;  // l's side that k sees
+  if (dot(mesh.patches[l].normal, pointOnPatch(qk, 0, 0) - ql[0]) < 0) {
+    std::swap(ql[1], ql[3]);
+    toward = -toward;
+  }
+  const double f = constantPatchFactor(qk, ql, tolerance);
+  if (!(f > 0)) return 0;
+  int seen = 0;
+  const uint32_t ignore[3] = {uint32_t(k), uint32_t(l), twin};
+  const uint32_t self[1] = {uint32_t(k)};
+  const Sight sight{occlusion, mesh, pointOnPatch(qk, 0, 0) + pk.normal * (occlusion.epsilon() * 10), ignore, self};
+  // The probes lifted off l on k's side, as in the transport: on l's plane itself they ended
+  // on l's double-sided twin, which blocked some of them by rounding (a white double-sided
+  // tray under a sky of 1 went 1.9% too bright at N = 2, 3.6% at N = 4).
+  const Vec3 lift = toward * (occlusion.epsilon() * 10);
+  for (const auto& b : kProbe) seen += sight.visible(pointOnPatch(ql, b[0], b[1]) + lift);
+  rays += 5;
+  return f * seen / 5.0;
+}
+
 std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion,
                                          const std::vector<bool>& enclosed, Ticker& ticker) {
   std::vector<double> sky(mesh.patches.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 8), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k != range.end(); ++k) {
       if (enclosed[k]) continue;  // covered whole: no sky
-      const Patch& pk = mesh.patches[k];
-      const auto qk = corners(mesh, pk);
-      const Vec3 from = pointOnPatch(qk, 0, 0) + pk.normal * (occlusion.epsilon() * 10);
       double covered = 0;
-      const uint32_t twin = pk.twin >= 0 ? uint32_t(pk.twin) : uint32_t(k);
-      for (size_t l = 0; l < mesh.patches.size(); ++l) {
-        // Covering is geometry: a double-sided surface covers once (its front), and a patch's twin
-        // covers nothing of it.
-        if (l == k || l == twin || mesh.patches[l].backSide) continue;
-        auto ql = corners(mesh, mesh.patches[l]);
-        // Nothing of l above k's plane, or k in l's plane: l covers nothing of k's hemisphere (the
-        // factor is 0; the transport's own rejections, without which the coplanar patches of a
-        // plate took most of the pass: 126 s against 26 s for the transport at 1,152 patches).
-        bool above = false, inPlane = true;
-        for (const Vec3& c : ql) above |= dot(pk.normal, c - qk[0]) > occlusion.epsilon();
-        for (const Vec3& c : qk) inPlane &= std::abs(dot(mesh.patches[l].normal, c - ql[0])) <= occlusion.epsilon();
-        if (!above || inPlane) continue;
-        Vec3 toward = mesh.patches[l].normal;  // l's side that k sees
-        if (dot(mesh.patches[l].normal, pointOnPatch(qk, 0, 0) - ql[0]) < 0) {
-          std::swap(ql[1], ql[3]);
-          toward = -toward;
-        }
-        const double f = constantPatchFactor(qk, ql);
-        if (!(f > 0)) continue;
-        int seen = 0;
-        const uint32_t ignore[3] = {uint32_t(k), uint32_t(l), twin};
-        const uint32_t self[1] = {uint32_t(k)};
-        const Sight sight{occlusion, mesh, from, ignore, self};
-        // The probes lifted off l on k's side, as in the transport: on l's plane itself they ended
-        // on l's double-sided twin, which blocked some of them by rounding (a white double-sided
-        // tray under a sky of 1 went 1.9% too bright at N = 2, 3.6% at N = 4).
-        const Vec3 lift = toward * (occlusion.epsilon() * 10);
-        for (const auto& b : kProbe) seen += sight.visible(pointOnPatch(ql, b[0], b[1]) + lift);
-        covered += f * seen / 5.0;
-      }
+      size_t rays = 0;  // not reported by the exact transport
+      for (size_t l = 0; l < mesh.patches.size(); ++l) covered += constantCover(mesh, occlusion, k, l, 1e-7, rays);
       sky[k] = std::max(0.0, 1 - covered);
     }
     ticker.add(range.size());
@@ -1571,54 +1629,86 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   solution.interreflection = true;
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
-  std::vector<Vec3> gathered;
   const auto closure = makeClosure(scene, mesh, options.method);
-  if (options.method == Method::kBilinear) {
-    std::vector<Vec3> emission(mesh.positions.size()), reflectance(mesh.positions.size());
-    for (size_t v = 0; v < mesh.positions.size(); ++v) {
-      emission[v] = mesh.vertexEmission[v];
-      reflectance[v] = mesh.vertexReflectance[v];
+  // The unknowns: vertices (bilinear) or patches (constant), with their emission and reflectance.
+  const bool bilinear = options.method == Method::kBilinear;
+  const size_t n = bilinear ? mesh.positions.size() : mesh.patches.size();
+  std::vector<Vec3> emission(n), reflectance(n);
+  for (size_t i = 0; i < n; ++i) {
+    emission[i] = bilinear ? mesh.vertexEmission[i] : mesh.patches[i].emission;
+    reflectance[i] = bilinear ? mesh.vertexReflectance[i] : mesh.patches[i].reflectance;
+  }
+  const double offset = occlusion.epsilon() * 10;
+  const auto recv = std::make_shared<const Receivers>(bilinear ? receivers(mesh, offset) : patchReceivers(mesh, offset));
+  const bool hierarchical = options.transport == TransportMode::kHierarchical;
+  ReceiverGroups groups;
+  if (hierarchical)
+    groups = receiverGroups(receiverItems(mesh, *recv, *closure, options.method), gatheringReceivers(mesh, *recv, *closure, occlusion.epsilon()));
+  // With a sky, its pass takes the first part of the progress (it is one more walk, or for the
+  // exact transport one more pass over every pair).
+  const double transportFrom = hasSky(options) ? kSkyProgress : 0;
+  Ticker skyTicker(options.progress, n, 0, transportFrom);
+  auto skyFractions = [&] {
+    if (!hierarchical)
+      return bilinear ? bilinearSkyFractions(mesh, occlusion, *recv, closure->rows, options.kernelTolerance, skyTicker)
+                      : constantSkyFractions(mesh, occlusion, closure->rows, skyTicker);
+    const double accuracy = options.accuracy * kSkyAccuracy;
+    const KernelOptions kernel = nearKernelOptions(options.kernelTolerance, accuracy);  // at this pass's accuracy
+    const CoverPair cover = bilinear ? CoverPair([&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays) {
+      return skyCover(mesh, occlusion, *recv, kernel, v, patch, ignore, accuracy * kFaintPairShare, rays);
+    })
+                                     : CoverPair([&](uint32_t k, uint32_t patch, std::vector<uint32_t>&, size_t& rays) {
+                                         return constantCover(mesh, occlusion, k, patch, kernel.relativeTolerance, rays);
+                                       });
+    MemoryBudget memory;  // the sky pass keeps its links until its fractions are summed
+    memory.limit = options.transportMemoryBytes;
+    return hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, accuracy, cover, memory, skyTicker,
+                                    solution.clusterRays, solution.nearRays);
+  };
+  const std::vector<Vec3> source =
+      withDirectLight(withSky(emission, reflectance, options, skyFractions), reflectance,
+                      bilinear ? bilinearDirectLight(scene, mesh, occlusion, *recv) : constantDirectLight(scene, mesh, occlusion));
+  Transport K;
+  Hierarchical H;
+  Gather gather = exactGather(K);
+  if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
+    if (hierarchical) {
+      // The near kernels to a tenth of --accuracy, not to the exact transport's 1e-6: a row's near
+      // entries then err by at most that share of its total, below what each link may, and the
+      // graded quadrature (KernelIntegrator) was a fifth of the engine part's time at 1e-6 (12–15%
+      // less time at 1e-4 on the Cornell box, the Blender room and the engine part, errors against
+      // exact unchanged to 0.001%). The constant method's patch factors likewise.
+      const KernelOptions kernel = nearKernelOptions(options.kernelTolerance, options.accuracy);
+      const double tolerance = std::max(0.1 * options.kernelTolerance, options.accuracy * kNearKernelShare);
+      const NearPair nearPair =
+          bilinear ? NearPair([&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row) {
+            return addPatchKernel(mesh, occlusion, *recv, kernel, v, patch, ignore, row, options.accuracy * kFaintPairShare);
+          })
+                   : NearPair([&](uint32_t k, uint32_t patch, std::vector<uint32_t>&, Row& row) {
+                       size_t rays = 0;
+                       const double f = constantPairFactor(mesh, occlusion, k, patch, tolerance, rays);
+                       if (f > 0) row.emplace_back(patch, f);
+                       return rays;
+                     });
+      H = hierarchicalTransport(mesh, occlusion, options, transportFrom, *recv, *closure, std::move(groups), nearPair);
+      gather = hierarchicalGather(H, mesh);
+      solution.matrixEntries = H.nearEntries;
+      solution.farLinks = H.linkCount;
+      solution.clusterRays += H.rays;
+      solution.nearRays += H.nearRays;
+      solution.clusters = H.source.nodes.size() + H.receiver.nodes.size();
+      solution.linkErrorBound = H.worstError;
+      solution.transportBytes = H.bytes();
+    } else {
+      K = bilinear ? bilinearTransport(mesh, occlusion, options, recv, closure) : constantTransport(mesh, occlusion, options, closure);
+      applyClosure(K, closure);
+      storeIfItFits(K, options, transportFrom, solution.matrixEntries);
+      solution.matrixFree = !K.stored();
+      solution.transportBytes = K.stored() ? solution.matrixEntries * kBytesPerEntry : 0;
     }
-    const auto recv = std::make_shared<const Receivers>(receivers(mesh, occlusion.epsilon() * 10));
-    const bool hierarchical = options.transport == TransportMode::kHierarchical;
-    ReceiverGroups groups;
-    if (hierarchical) groups = receiverGroups(mesh, *recv, *closure, gatheringVertices(mesh, *recv, *closure, occlusion.epsilon()));
-    // With a sky, its pass takes the first part of the progress (it is one more walk, or for the
-    // exact transport one more pass over every pair).
-    const double transportFrom = hasSky(options) ? kSkyProgress : 0;
-    Ticker skyTicker(options.progress, mesh.positions.size(), 0, transportFrom);
-    const std::vector<Vec3> source = withDirectLight(
-        withSky(emission, reflectance, options,
-                [&] {
-                  MemoryBudget memory;  // the sky pass keeps its links until its fractions are summed
-                  memory.limit = options.transportMemoryBytes;
-                  return hierarchical ? hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, options.accuracy * kSkyAccuracy,
-                                                                 options.kernelTolerance, memory, skyTicker, solution.clusterRays, solution.nearRays)
-                                      : bilinearSkyFractions(mesh, occlusion, *recv, closure->rows, options.kernelTolerance, skyTicker);
-                }),
-        reflectance, bilinearDirectLight(scene, mesh, occlusion, *recv));
-    Transport K;
-    Hierarchical H;
-    Gather gather = exactGather(K);
-    if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
-      if (hierarchical) {
-        H = hierarchicalTransport(mesh, occlusion, options, transportFrom, *recv, *closure, std::move(groups));
-        gather = hierarchicalGather(H, mesh);
-        solution.matrixEntries = H.nearEntries;
-        solution.farLinks = H.linkCount;
-        solution.clusterRays += H.rays;
-        solution.nearRays += H.nearRays;
-        solution.clusters = H.source.nodes.size() + H.receiver.nodes.size();
-        solution.linkErrorBound = H.worstError;
-        solution.transportBytes = H.bytes();
-      } else {
-        K = bilinearTransport(mesh, occlusion, options, recv, closure);
-        applyClosure(K, closure);
-        storeIfItFits(K, options, transportFrom, solution.matrixEntries);
-        solution.matrixFree = !K.stored();
-        solution.transportBytes = K.stored() ? solution.matrixEntries * kBytesPerEntry : 0;
-      }
-    }
+  }
+  std::vector<Vec3> gathered;
+  if (bilinear) {
     iterate(gather, source, reflectance, options, solution.vertexRadiance, gathered, solution);
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
@@ -1640,26 +1730,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       solution.patchRadiance[p] = sum / (a[0] + a[1] + a[2] + a[3]);
     }
   } else {
-    std::vector<Vec3> emission(mesh.patches.size()), reflectance(mesh.patches.size());
-    for (size_t p = 0; p < mesh.patches.size(); ++p) {
-      emission[p] = mesh.patches[p].emission;
-      reflectance[p] = mesh.patches[p].reflectance;
-    }
-    // As for the bilinear method: with a sky, its pass (all pairs again) takes the first part.
-    const double transportFrom = hasSky(options) ? kSkyProgress : 0;
-    Ticker skyTicker(options.progress, mesh.patches.size(), 0, transportFrom);
-    const std::vector<Vec3> source = withDirectLight(
-        withSky(emission, reflectance, options, [&] { return constantSkyFractions(mesh, occlusion, closure->rows, skyTicker); }),
-        reflectance, constantDirectLight(scene, mesh, occlusion));
-    Transport F;
-    if (anyLight(source)) {
-      F = constantTransport(mesh, occlusion, options, closure);
-      applyClosure(F, closure);
-      storeIfItFits(F, options, transportFrom, solution.matrixEntries);
-      solution.transportBytes = F.stored() ? solution.matrixEntries * kBytesPerEntry : 0;
-      solution.matrixFree = !F.stored();
-    }
-    iterate(exactGather(F), source, reflectance, options, solution.patchRadiance, gathered, solution);
+    iterate(gather, source, reflectance, options, solution.patchRadiance, gathered, solution);
     for (size_t p = 0; p < mesh.patches.size(); ++p) {
       const Vec3& rho = reflectance[p];
       solution.emittedPower += kPi * mesh.patches[p].area * (emission[p].x + emission[p].y + emission[p].z) / 3;

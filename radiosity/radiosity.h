@@ -23,7 +23,7 @@ enum class TransportMode { kExact, kHierarchical };
 
 struct RadiosityOptions {
   Method method = Method::kBilinear;
-  TransportMode transport = TransportMode::kExact;  // hierarchical: the bilinear method only (so far)
+  TransportMode transport = TransportMode::kExact;
   // Hierarchical transport: the largest estimated error of one far link, as a share of the
   // receiver's hemisphere (3 (r/d)² F for a cluster of radius r at distance d with factor F).
   double accuracy = 1e-3;

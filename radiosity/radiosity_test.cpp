@@ -90,8 +90,8 @@ json meshNames(const std::string& file) {
   return names;
 }
 
-// (method, transport): both methods with the exact transport, and the bilinear method with the
-// hierarchical one (its far links begin at N = 3 here; Hierarchical.Furnace* goes to N = 16).
+// (method, transport): both methods with both transports (the hierarchical one's far links begin
+// at N = 3 here; Hierarchical.Furnace* goes further).
 using Solver = std::pair<Method, TransportMode>;
 class Furnace : public ::testing::TestWithParam<std::tuple<int, Solver>> {};
 
@@ -118,7 +118,8 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Combine(::testing::Values(1, 2, 3, 4, 5, 6, 7, 8),
                        ::testing::Values(Solver{Method::kBilinear, TransportMode::kExact},
                                          Solver{Method::kBilinear, TransportMode::kHierarchical},
-                                         Solver{Method::kConstant, TransportMode::kExact})),
+                                         Solver{Method::kConstant, TransportMode::kExact},
+                                         Solver{Method::kConstant, TransportMode::kHierarchical})),
     [](const auto& info) {
       const Solver solver = std::get<1>(info.param);
       return std::string(solver.first == Method::kBilinear ? "bilinear" : "constant") +
@@ -227,42 +228,47 @@ TEST(Solver, IdenticalForAnyThreadCount) {
 // scales near entries and far links alike), so a subdivided furnace is still 2 everywhere; the
 // clusters really are used (far links), and the same bits come out for any thread count.
 TEST(Hierarchical, FurnaceIsTwoEverywhereWithFarLinks) {
-  const Baked b = bake("furnace_cube.gltf", 16, Method::kBilinear, 1e-10, TransportMode::kHierarchical);
-  EXPECT_GT(b.solution.farLinks, b.mesh.positions.size());
-  double worst = 0;
-  for (const Vec3& L : b.solution.vertexRadiance) worst = std::max({worst, std::abs(L.x - 2), std::abs(L.y - 2), std::abs(L.z - 2)});
-  EXPECT_LT(worst, 1e-5);
-  EXPECT_NEAR(b.solution.absorbedPower / b.solution.emittedPower, 1.0, 1e-6);
+  for (const Method method : {Method::kBilinear, Method::kConstant}) {
+    const Baked b = bake("furnace_cube.gltf", 16, method, 1e-10, TransportMode::kHierarchical);
+    EXPECT_GT(b.solution.farLinks, b.mesh.patches.size());
+    double worst = 0;
+    for (const Vec3& L : method == Method::kBilinear ? b.solution.vertexRadiance : b.solution.patchRadiance)
+      worst = std::max({worst, std::abs(L.x - 2), std::abs(L.y - 2), std::abs(L.z - 2)});
+    EXPECT_LT(worst, 1e-5) << (method == Method::kBilinear ? "bilinear" : "constant");
+    EXPECT_NEAR(b.solution.absorbedPower / b.solution.emittedPower, 1.0, 1e-6);
+  }
 }
 
 TEST(Hierarchical, IdenticalForAnyThreadCount) {
-  std::vector<Vec3> one, two;
-  {
-    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
-    one = bake("cornell_box.gltf", 8, Method::kBilinear, 1e-6, TransportMode::kHierarchical).solution.vertexRadiance;
+  for (const Method method : {Method::kBilinear, Method::kConstant}) {
+    auto run = [&](int threads) {
+      tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
+      const Solution s = bake("cornell_box.gltf", method == Method::kBilinear ? 8 : 4, method, 1e-6, TransportMode::kHierarchical).solution;
+      return method == Method::kBilinear ? s.vertexRadiance : s.patchRadiance;
+    };
+    const std::vector<Vec3> one = run(1), two = run(2);
+    ASSERT_EQ(one.size(), two.size());
+    for (size_t i = 0; i < one.size(); ++i) EXPECT_TRUE(one[i] == two[i]) << i;
   }
-  {
-    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
-    two = bake("cornell_box.gltf", 8, Method::kBilinear, 1e-6, TransportMode::kHierarchical).solution.vertexRadiance;
-  }
-  ASSERT_EQ(one.size(), two.size());
-  for (size_t i = 0; i < one.size(); ++i) EXPECT_TRUE(one[i] == two[i]) << i;
 }
 
 // Against the exact transport (the second method) on the Cornell box at N = 8, with and without a
 // sky through its open front (the sky pass walks the clusters too): the accuracy bounds,
 // RMS ≤ 0.5% and largest ≤ 3% of the mean radiance.
-class HierarchicalCornell : public ::testing::TestWithParam<bool> {};
+// The constant method likewise, patch by patch (at N = 4: its exact transport is the slow one).
+class HierarchicalCornell : public ::testing::TestWithParam<std::tuple<Method, bool>> {};
 
 TEST_P(HierarchicalCornell, AgreesWithExactTransport) {
-  const bool sky = GetParam();
+  const auto [method, sky] = GetParam();
   auto run = [&](TransportMode transport) {
     Baked b;
     b.scene = importScene((kScenes / "cornell_box.gltf").string());
     TessellateOptions t;
-    t.subdivide = 8;
+    t.subdivide = method == Method::kBilinear ? 8 : 4;
+    t.flatPatches = method == Method::kConstant;
     b.mesh = tessellate(b.scene, t);
     RadiosityOptions o;
+    o.method = method;
     o.transport = transport;
     if (sky) o.sky = {4, 4, 4};
     b.solution = solveRadiosity(b.scene, b.mesh, o);
@@ -270,12 +276,14 @@ TEST_P(HierarchicalCornell, AgreesWithExactTransport) {
   };
   const Baked exact = run(TransportMode::kExact);
   const Baked hier = run(TransportMode::kHierarchical);
-  ASSERT_EQ(exact.solution.vertexRadiance.size(), hier.solution.vertexRadiance.size());
+  const auto& exactL = method == Method::kBilinear ? exact.solution.vertexRadiance : exact.solution.patchRadiance;
+  const auto& hierL = method == Method::kBilinear ? hier.solution.vertexRadiance : hier.solution.patchRadiance;
+  ASSERT_EQ(exactL.size(), hierL.size());
   EXPECT_GT(hier.solution.farLinks, 0u);
   double mean = 0, sumSquares = 0, largest = 0;
-  const size_t n = exact.solution.vertexRadiance.size();
+  const size_t n = exactL.size();
   for (size_t v = 0; v < n; ++v) {
-    const Vec3 &a = exact.solution.vertexRadiance[v], &b = hier.solution.vertexRadiance[v];
+    const Vec3 &a = exactL[v], &b = hierL[v];
     mean += (a.x + a.y + a.z) / 3 / n;
     const double d = std::abs((a.x + a.y + a.z) - (b.x + b.y + b.z)) / 3;
     sumSquares += d * d / n;
@@ -285,8 +293,11 @@ TEST_P(HierarchicalCornell, AgreesWithExactTransport) {
   EXPECT_LT(largest / mean, 0.03);
 }
 
-INSTANTIATE_TEST_SUITE_P(Sky, HierarchicalCornell, ::testing::Values(false, true),
-                         [](const auto& info) { return info.param ? std::string("with_sky") : std::string("without_sky"); });
+INSTANTIATE_TEST_SUITE_P(Sky, HierarchicalCornell, ::testing::Combine(::testing::Values(Method::kBilinear, Method::kConstant), ::testing::Bool()),
+                         [](const auto& info) {
+                           return std::string(std::get<0>(info.param) == Method::kBilinear ? "bilinear" : "constant") +
+                                  (std::get<1>(info.param) ? "_with_sky" : "_without_sky");
+                         });
 
 TEST(Solver, CornellBoxStaysBoundedAndNoLightLeaksUnderBlocks) {
   const Baked b = bake("cornell_box.gltf", 4, Method::kBilinear);
@@ -438,7 +449,8 @@ TEST(Sky, AWhiteOpenBoxIsUniformUnderASky) {
     bool doubleSided;
   };
   for (const Case& c : {Case{Method::kBilinear, TransportMode::kExact, false}, Case{Method::kBilinear, TransportMode::kHierarchical, false},
-                        Case{Method::kBilinear, TransportMode::kHierarchical, true}, Case{Method::kConstant, TransportMode::kExact, true}}) {
+                        Case{Method::kBilinear, TransportMode::kHierarchical, true}, Case{Method::kConstant, TransportMode::kExact, true},
+                        Case{Method::kConstant, TransportMode::kHierarchical, false}, Case{Method::kConstant, TransportMode::kHierarchical, true}}) {
     Scene scene;
     scene.materials = {material("white", 1.0, 0, c.doubleSided)};
     Primitive box = boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0);
@@ -459,7 +471,8 @@ TEST(Sky, AWhiteOpenBoxIsUniformUnderASky) {
     const Solution solution = solveRadiosity(scene, mesh, o);
     double worst = 0;
     for (const Vec3& L : c.method == Method::kBilinear ? solution.vertexRadiance : solution.patchRadiance) worst = std::max(worst, std::abs(L.x - 1));
-    EXPECT_LT(worst, 1e-5) << (c.method == Method::kConstant ? "constant" : c.transport == TransportMode::kExact ? "exact" : "hierarchical")
+    EXPECT_LT(worst, 1e-5) << (c.method == Method::kConstant ? "constant, " : "bilinear, ")
+                           << (c.transport == TransportMode::kExact ? "exact" : "hierarchical")
                            << (c.doubleSided ? ", double-sided" : "");
   }
 }

@@ -958,9 +958,9 @@ TEST(Cli, SceneChoosesTheGltfScene) {
   EXPECT_EQ(r.err, "error: cornell_box.gltf: --scene 3: the file has 1 scenes\n");
 }
 
-// The transport a bake uses, as its report says: hierarchical by default for the bilinear method,
-// exact for the constant one (which has no hierarchical transport yet: asking for it is exit 3).
-TEST(Cli, TransportDefaultsToHierarchicalForBilinear) {
+// The transport a bake uses, as its report says: hierarchical by default for both methods, exact
+// when asked for.
+TEST(Cli, TransportDefaultsToHierarchical) {
   const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
   const fs::path report = tempDir() / "report.json";
   auto transport = [&](std::vector<std::string> extra) {
@@ -984,11 +984,8 @@ TEST(Cli, TransportDefaultsToHierarchicalForBilinear) {
   };
   EXPECT_EQ(transport({"--subdivide", "8"}), "hierarchical");
   EXPECT_EQ(transport({"--transport", "exact"}), "exact");
-  EXPECT_EQ(transport({"--method", "constant"}), "exact");
-  const RunResult r = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--method", "constant", "--transport", "hierarchical"});
-  EXPECT_EQ(r.code, 3);
-  EXPECT_EQ(r.err, "error: radbake: --transport hierarchical works with the bilinear method only (so far)\n");
-  EXPECT_FALSE(fs::exists(tempDir() / "c.glb"));
+  EXPECT_EQ(transport({"--method", "constant", "--subdivide", "8"}), "hierarchical");
+  EXPECT_EQ(transport({"--method", "constant", "--transport", "exact"}), "exact");
 }
 
 TEST(Info, ListsMeshesWithTheirInstances) {
@@ -1301,9 +1298,8 @@ TEST(Progress, SkyPassReportsBeforeTheTransport) {
     }
     return solve;
   };
-  // The bilinear method's default transport, and the constant method's all-pairs one (whose sky
-  // pass reported nothing until 2026-12-03).
-  // (The constant method at 128 patches: its all-pairs passes take 0.7 s there, 42 s at 1,152.)
+  // Both methods' default (hierarchical) transport. (The constant method's sky pass reported
+  // nothing until 2026-12-03; at 128 patches its passes take under a second.)
   for (const auto& [method, n] : {std::pair{"bilinear", "24"}, std::pair{"constant", "8"}}) {
     SCOPED_TRACE(method);
     const std::vector<double> dark = solveProgress({"--method", method, "--subdivide", n}),

@@ -285,11 +285,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   RadiosityOptions radiosityOptions;
   radiosityOptions.relativeResidual = options.tolerance;
   radiosityOptions.method = options.method == "constant" ? Method::kConstant : Method::kBilinear;
-  if (options.transport == "hierarchical" || (options.transport.empty() && radiosityOptions.method == Method::kBilinear)) {
-    if (radiosityOptions.method == Method::kConstant)
-      throw Error(ExitCode::kUnsupported, "radbake: --transport hierarchical works with the bilinear method only (so far)");
-    radiosityOptions.transport = TransportMode::kHierarchical;
-  }
+  if (options.transport != "exact") radiosityOptions.transport = TransportMode::kHierarchical;
   radiosityOptions.accuracy = options.accuracy;
   if (options.sky) radiosityOptions.sky = parseSky(*options.sky);
   radiosityOptions.progress = [&](double f) { progress.report(f); };
@@ -441,8 +437,8 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--tolerance", o.tolerance, "relative residual at which the solver stops (default 1e-6)")
       ->check(finiteIn(1e-15, 1.0, "a tolerance from 1e-15 to 1"));
   bakeCmd->add_option("--transport", o.transport,
-                      "hierarchical (default for the bilinear method): far clusters of patches at once; exact (default "
-                      "for constant): every receiver gathers from every patch (docs/radiosity.md)")
+                      "hierarchical (default): far clusters of patches at once; exact: every receiver gathers from "
+                      "every patch, the tests' reference (docs/radiosity.md)")
       ->check(CLI::IsMember({"exact", "hierarchical"}));
   bakeCmd->add_option("--accuracy", o.accuracy,
                       "hierarchical transport: largest estimated error of one cluster link, as a share of the hemisphere "
