@@ -564,26 +564,6 @@ size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const R
   return rays;
 }
 
-// Bilinear method: row i holds K_ij for every vertex j, K_ij = Σ over patches of the kernel from
-// vertex i to the patch's shape function at j, times visibility.
-Transport bilinearTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
-                            std::shared_ptr<const Receivers> recv, std::shared_ptr<const Closure> closure) {
-  Transport t;
-  t.rows = mesh.positions.size();
-  KernelOptions kernelOptions;
-  kernelOptions.relativeTolerance = options.kernelTolerance;
-  const Bounds bounds = sceneBounds(mesh);
-  t.build = [&mesh, &occlusion, recv, kernelOptions, closure, bounds](size_t i, Row& row) {
-    if (facesNothing(bounds, mesh.positions[i], recv->normal[i], occlusion.epsilon())) return;
-    std::vector<uint32_t> ignore(recv->ignored(i).begin(), recv->ignored(i).end());
-    ignore.push_back(0);  // the source patch, set per source
-    for (size_t source = 0; source < mesh.patches.size(); ++source)
-      if (!closure->separates(i, source)) addPatchKernel(mesh, occlusion, *recv, kernelOptions, i, source, ignore, row);
-    canonicalize(row);
-  };
-  return t;
-}
-
 // A source node's vector moment of L per color channel, beside its centroid: the far gather reads
 // both for every link, from one place (they were two scattered reads, the centroid's in a TreeNode).
 struct NodeMoment {
@@ -1154,15 +1134,8 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
   return sum(vertexQuadKernel(p, nrm, approach, q, kernel), vis);
 }
 
-// The hierarchical walks' near (vertex, patch) kernels: to a share of the walk's accuracy, never
-// finer than the exact transport's tolerance (hierarchicalTransport says why).
-KernelOptions nearKernelOptions(double kernelTolerance, double accuracy) {
-  KernelOptions options;
-  options.relativeTolerance = std::max(kernelTolerance, accuracy * kNearKernelShare);
-  return options;
-}
-
-// A hierarchical walk's exact (receiver, patch) pairs. NearPair appends what receiver v takes from
+// The exact (receiver, patch) pairs of either transport (a walk's leaves, or every pair).
+// NearPair appends what receiver v takes from
 // `patch` to `row` (the bilinear method's K_ij per corner vertex j, the constant method's F_vl) and
 // returns the rays it traced; CoverPair returns the share of v's hemisphere `patch` covers and
 // counts its rays. `ignore` is v's ignore list with a free last slot.
@@ -1330,51 +1303,6 @@ double constantPairFactor(const PatchMesh& mesh, const Occlusion& occlusion, siz
   return f * (seen / 25.0);
 }
 
-// Constant method: row k holds F_kl for every patch l (constantPairFactor).
-Transport constantTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
-                            std::shared_ptr<const Closure> closure) {
-  Transport t;
-  t.rows = mesh.patches.size();
-  const double tolerance = 0.1 * options.kernelTolerance;
-  const Bounds bounds = sceneBounds(mesh);
-  t.build = [&mesh, &occlusion, tolerance, closure, bounds](size_t k, Row& row) {
-    const Patch& pk = mesh.patches[k];
-    bool nothing = true;
-    for (const Vec3& c : corners(mesh, pk)) nothing = nothing && facesNothing(bounds, c, pk.normal, occlusion.epsilon());
-    if (nothing) return;
-    size_t rays = 0;  // not reported by the exact transport
-    for (size_t l = 0; l < mesh.patches.size(); ++l) {
-      if (l == k || closure->separates(k, l)) continue;
-      const double f = constantPairFactor(mesh, occlusion, k, l, tolerance, rays);
-      if (f > 0) row.emplace_back(uint32_t(l), f);
-    }
-  };
-  return t;
-}
-
-// The part of each receiver's projected solid angle that no surface covers, front or back: what a
-// uniform sky lights. Two-sided factors of every patch, times their visible fraction.
-std::vector<double> bilinearSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
-                                         const std::vector<bool>& enclosed, double kernelTolerance, Ticker& ticker) {
-  KernelOptions kernelOptions;  // the exact transport's (bilinearTransport)
-  kernelOptions.relativeTolerance = kernelTolerance;
-  std::vector<double> sky(mesh.positions.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t i = range.begin(); i != range.end(); ++i) {
-      if (enclosed[i]) continue;  // covered whole: no sky
-      double covered = 0;
-      std::vector<uint32_t> ignore(recv.ignored(i).begin(), recv.ignored(i).end());
-      ignore.push_back(0);
-      size_t rays = 0;  // not reported by the exact transport
-      for (size_t source = 0; source < mesh.patches.size(); ++source)
-        covered += skyCover(mesh, occlusion, recv, kernelOptions, i, source, ignore, 0, rays);
-      sky[i] = std::max(0.0, 1 - covered);
-    }
-    ticker.add(range.size());
-  });
-  return sky;
-}
-
 // The share of patch k's hemisphere that patch l covers, seen from either side (constant method):
 // l's factor from k times the share of five probes on it seen from k's centre. Counts its rays.
 double constantCover(const PatchMesh& mesh, const Occlusion& occlusion, size_t k, size_t l, double tolerance, size_t& rays) {
@@ -1412,16 +1340,79 @@ double constantCover(const PatchMesh& mesh, const Occlusion& occlusion, size_t k
   return f * seen / 5.0;
 }
 
-std::vector<double> constantSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion,
-                                         const std::vector<bool>& enclosed, Ticker& ticker) {
-  std::vector<double> sky(mesh.patches.size());
+// The relative tolerance of the near kernels (bilinear) or patch factors (constant) of a walk at
+// `accuracy`, or of the exact transport (accuracy 0): a share of the accuracy, never finer than
+// the exact transport's (the constant method's factors to a tenth of kernelTolerance).
+double pairTolerance(Method method, double kernelTolerance, double accuracy) {
+  return std::max(method == Method::kConstant ? 0.1 * kernelTolerance : kernelTolerance, accuracy * kNearKernelShare);
+}
+
+// The (receiver, patch) pairs of either method, for the exact transport (accuracy 0) or a walk at
+// `accuracy`: kernels or factors to pairTolerance, and for a walk one ray for a faint bilinear pair
+// (pairVisibility). The functions keep references to mesh, occlusion and recv.
+NearPair nearPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, Method method,
+                   double kernelTolerance, double accuracy) {
+  const double tolerance = pairTolerance(method, kernelTolerance, accuracy), faint = accuracy * kFaintPairShare;
+  if (method == Method::kConstant)
+    return [&mesh, &occlusion, tolerance](uint32_t k, uint32_t patch, std::vector<uint32_t>&, Row& row) {
+      size_t rays = 0;
+      const double f = constantPairFactor(mesh, occlusion, k, patch, tolerance, rays);
+      if (f > 0) row.emplace_back(patch, f);
+      return rays;
+    };
+  KernelOptions kernel;
+  kernel.relativeTolerance = tolerance;
+  return [&mesh, &occlusion, &recv, kernel, faint](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row) {
+    return addPatchKernel(mesh, occlusion, recv, kernel, v, patch, ignore, row, faint);
+  };
+}
+
+CoverPair coverPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, Method method,
+                     double kernelTolerance, double accuracy) {
+  const double tolerance = pairTolerance(method, kernelTolerance, accuracy), faint = accuracy * kFaintPairShare;
+  if (method == Method::kConstant)
+    return [&mesh, &occlusion, tolerance](uint32_t k, uint32_t patch, std::vector<uint32_t>&, size_t& rays) {
+      return constantCover(mesh, occlusion, k, patch, tolerance, rays);
+    };
+  KernelOptions kernel;
+  kernel.relativeTolerance = tolerance;
+  return [&mesh, &occlusion, &recv, kernel, faint](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays) {
+    return skyCover(mesh, occlusion, recv, kernel, v, patch, ignore, faint, rays);
+  };
+}
+
+// The exact transport: row i holds what receiver i takes from every patch on its side of every
+// closed surface (nearPair: the bilinear method's K_ij, the constant method's F_kl).
+Transport exactTransport(const PatchMesh& mesh, const Occlusion& occlusion, std::shared_ptr<const Receivers> recv,
+                         std::shared_ptr<const Closure> closure, NearPair nearPair) {
+  Transport t;
+  t.rows = recv->point.size();
+  const Bounds bounds = sceneBounds(mesh);
+  t.build = [&mesh, &occlusion, recv, closure, bounds, nearPair](size_t i, Row& row) {
+    if (facesNothing(bounds, recv->point[i], recv->normal[i], occlusion.epsilon())) return;
+    std::vector<uint32_t> ignore(recv->ignored(i).begin(), recv->ignored(i).end());
+    ignore.push_back(0);  // the source patch, set per source
+    for (size_t source = 0; source < mesh.patches.size(); ++source)
+      if (!closure->separates(i, source)) nearPair(uint32_t(i), uint32_t(source), ignore, row);
+    canonicalize(row);
+  };
+  return t;
+}
+
+// The part of each receiver's projected solid angle that no surface covers, front or back: what a
+// uniform sky lights. Every patch's cover (coverPair), summed.
+std::vector<double> exactSkyFractions(const PatchMesh& mesh, const Receivers& recv, const std::vector<bool>& enclosed,
+                                      const CoverPair& coverPair, Ticker& ticker) {
+  std::vector<double> sky(recv.point.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sky.size(), 8), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t k = range.begin(); k != range.end(); ++k) {
-      if (enclosed[k]) continue;  // covered whole: no sky
+    for (size_t i = range.begin(); i != range.end(); ++i) {
+      if (enclosed[i]) continue;  // covered whole: no sky
       double covered = 0;
+      std::vector<uint32_t> ignore(recv.ignored(i).begin(), recv.ignored(i).end());
+      ignore.push_back(0);
       size_t rays = 0;  // not reported by the exact transport
-      for (size_t l = 0; l < mesh.patches.size(); ++l) covered += constantCover(mesh, occlusion, k, l, 1e-7, rays);
-      sky[k] = std::max(0.0, 1 - covered);
+      for (size_t source = 0; source < mesh.patches.size(); ++source) covered += coverPair(uint32_t(i), uint32_t(source), ignore, rays);
+      sky[i] = std::max(0.0, 1 - covered);
     }
     ticker.add(range.size());
   });
@@ -1650,20 +1641,14 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   Ticker skyTicker(options.progress, n, 0, transportFrom);
   auto skyFractions = [&] {
     if (!hierarchical)
-      return bilinear ? bilinearSkyFractions(mesh, occlusion, *recv, closure->rows, options.kernelTolerance, skyTicker)
-                      : constantSkyFractions(mesh, occlusion, closure->rows, skyTicker);
+      return exactSkyFractions(mesh, *recv, closure->rows, coverPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, 0),
+                               skyTicker);
     const double accuracy = options.accuracy * kSkyAccuracy;
-    const KernelOptions kernel = nearKernelOptions(options.kernelTolerance, accuracy);  // at this pass's accuracy
-    const CoverPair cover = bilinear ? CoverPair([&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays) {
-      return skyCover(mesh, occlusion, *recv, kernel, v, patch, ignore, accuracy * kFaintPairShare, rays);
-    })
-                                     : CoverPair([&](uint32_t k, uint32_t patch, std::vector<uint32_t>&, size_t& rays) {
-                                         return constantCover(mesh, occlusion, k, patch, kernel.relativeTolerance, rays);
-                                       });
     MemoryBudget memory;  // the sky pass keeps its links until its fractions are summed
     memory.limit = options.transportMemoryBytes;
-    return hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, accuracy, cover, memory, skyTicker,
-                                    solution.clusterRays, solution.nearRays);
+    return hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, accuracy,
+                                    coverPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, accuracy), memory,
+                                    skyTicker, solution.clusterRays, solution.nearRays);
   };
   const std::vector<Vec3> source =
       withDirectLight(withSky(emission, reflectance, options, skyFractions), reflectance,
@@ -1678,18 +1663,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       // graded quadrature (KernelIntegrator) was a fifth of the engine part's time at 1e-6 (12–15%
       // less time at 1e-4 on the Cornell box, the Blender room and the engine part, errors against
       // exact unchanged to 0.001%). The constant method's patch factors likewise.
-      const KernelOptions kernel = nearKernelOptions(options.kernelTolerance, options.accuracy);
-      const double tolerance = std::max(0.1 * options.kernelTolerance, options.accuracy * kNearKernelShare);
-      const NearPair nearPair =
-          bilinear ? NearPair([&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row) {
-            return addPatchKernel(mesh, occlusion, *recv, kernel, v, patch, ignore, row, options.accuracy * kFaintPairShare);
-          })
-                   : NearPair([&](uint32_t k, uint32_t patch, std::vector<uint32_t>&, Row& row) {
-                       size_t rays = 0;
-                       const double f = constantPairFactor(mesh, occlusion, k, patch, tolerance, rays);
-                       if (f > 0) row.emplace_back(patch, f);
-                       return rays;
-                     });
+      const NearPair nearPair = nearPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, options.accuracy);
       H = hierarchicalTransport(mesh, occlusion, options, transportFrom, *recv, *closure, std::move(groups), nearPair);
       gather = hierarchicalGather(H, mesh);
       solution.matrixEntries = H.nearEntries;
@@ -1700,7 +1674,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       solution.linkErrorBound = H.worstError;
       solution.transportBytes = H.bytes();
     } else {
-      K = bilinear ? bilinearTransport(mesh, occlusion, options, recv, closure) : constantTransport(mesh, occlusion, options, closure);
+      K = exactTransport(mesh, occlusion, recv, closure, nearPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, 0));
       applyClosure(K, closure);
       storeIfItFits(K, options, transportFrom, solution.matrixEntries);
       solution.matrixFree = !K.stored();
