@@ -999,6 +999,11 @@ TEST(Cli, UsageErrorsAreExit1) {
   EXPECT_EQ(radbake({"bake", "a.gltf", "-o", "b.glb", "--method", "pathtrace"}).code, 1);
   EXPECT_EQ(radbake({"bake", "a.gltf", "-o", "b.obj"}).code, 1);
   EXPECT_EQ(radbake({"frobnicate"}).code, 1);
+  // --accuracy stops where its errors stop paying (docs/radiosity.md, "Choosing --accuracy").
+  const RunResult loose = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", (tempDir() / "a.glb").string(), "--accuracy", "0.05"});
+  EXPECT_EQ(loose.code, 1);
+  EXPECT_EQ(loose.err, "error: radbake: --accuracy: expected an accuracy from 1e-9 to 0.01, got 0.05 (see radbake --help)\n");
+  EXPECT_FALSE(fs::exists(tempDir() / "a.glb"));
 }
 
 // The sRGB encoding written out here from IEC 61966-2-1, independent of radbake and OCIO.
