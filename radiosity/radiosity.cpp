@@ -1723,6 +1723,12 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     solution.vertexRadiance.resize(mesh.positions.size());
     for (size_t v = 0; v < sum.size(); ++v) solution.vertexRadiance[v] = weight[v] > 0 ? sum[v] / weight[v] : Vec3{};
   }
+  bool emits = false, enclosedEmitters = true;
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
+    const Vec3& e = mesh.patches[p].emission;
+    if (e.x > 0 || e.y > 0 || e.z > 0) emits = true, enclosedEmitters = enclosedEmitters && closure->patches[p];
+  }
+  solution.lightEnclosed = emits && enclosedEmitters && !hasSky(options) && scene.lights.empty();
   solution.enclosedUnknowns = size_t(std::count(closure->rows.begin(), closure->rows.end(), true));
   solution.closureCorrection = closure->largest.load();
   solution.darkUnknowns = size_t(std::count(closure->dark.begin(), closure->dark.end(), true));

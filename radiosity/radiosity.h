@@ -71,6 +71,9 @@ struct Solution {
   // discretization error).
   double emittedPower = 0;
   double absorbedPower = 0;
+  // Every emitting patch lies inside a closed room and there is no sky and no punctual light: all
+  // the emitted power must be absorbed, so 1 − absorbed/emitted is the discretization's error.
+  bool lightEnclosed = false;
 };
 
 // What solveRadiosity throws when the hierarchical transport outgrows options.transportMemoryBytes

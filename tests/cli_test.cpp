@@ -680,6 +680,66 @@ TEST(BadInput, NoEmitterIsAWarning) {
   EXPECT_NE(r.err.find("warning: dark.gltf: no emitter"), std::string::npos) << r.err;
 }
 
+// A closed white room (the unit cube seen from inside, ρ 0.5, one quad a face) with a double-sided
+// lamp (0.2 × 0.2, L⁰ 1) 2 cm under the ceiling, as a glTF text: the light the lamp's back sends
+// into the ceiling's middle is a peak far narrower than a patch.
+std::string lampRoomGltf() {
+  std::vector<float> data;
+  // Per face: origin and two edges whose cross product is the inward normal.
+  const float faces[6][9] = {{0, 0, 0, 0, 0, 1, 1, 0, 0}, {0, 1, 0, 1, 0, 0, 0, 0, 1}, {0, 0, 0, 0, 1, 0, 0, 0, 1},
+                             {1, 0, 0, 0, 0, 1, 0, 1, 0}, {0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 0, 1, 0, 1, 0, 1, 0, 0}};
+  for (const auto& f : faces) {
+    const float o[3] = {f[0], f[1], f[2]}, u[3] = {f[3], f[4], f[5]}, v[3] = {f[6], f[7], f[8]};
+    const float corner[4][3] = {{o[0], o[1], o[2]},
+                                {o[0] + u[0], o[1] + u[1], o[2] + u[2]},
+                                {o[0] + u[0] + v[0], o[1] + u[1] + v[1], o[2] + u[2] + v[2]},
+                                {o[0] + v[0], o[1] + v[1], o[2] + v[2]}};
+    for (int k : {0, 1, 2, 0, 2, 3}) data.insert(data.end(), corner[k], corner[k] + 3);
+  }
+  // The lamp faces down: counter-clockwise seen from below.
+  const float lamp[4][3] = {{0.4f, 0.98f, 0.4f}, {0.4f, 0.98f, 0.6f}, {0.6f, 0.98f, 0.6f}, {0.6f, 0.98f, 0.4f}};
+  for (int k : {0, 1, 2, 0, 2, 3}) data.insert(data.end(), lamp[k], lamp[k] + 3);
+  return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1]}],"nodes":[{"mesh":0},{"mesh":1}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]},{"primitives":[{"attributes":{"POSITION":1},"material":1}]}],
+    "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0}},
+                 {"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"metallicFactor":0},"emissiveFactor":[1,1,1],"doubleSided":true}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":36,"type":"VEC3","min":[0,0,0],"max":[1,1,1]},
+                 {"bufferView":0,"byteOffset":432,"componentType":5126,"count":6,"type":"VEC3","min":[0.4,0.98,0.4],"max":[0.6,0.98,0.6]}],
+    "bufferViews":[{"buffer":0,"byteLength":504}],
+    "buffers":[{"byteLength":504,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}]})";
+}
+
+// In a closed scene all the emitted light must be absorbed; where the bake loses or gains more
+// than 5% of it, the patches are too coarse for where the light falls, and radbake says so. The
+// lamp room at one patch a face loses 84%, at 16 × 16 gains 11%; the furnace-like cube (an
+// emitting floor) balances to 4e-6, and the open Cornell box is not closed.
+TEST(BadInput, LightThatDoesNotBalanceInAClosedSceneIsAWarning) {
+  const fs::path f = tempDir() / "lamp.gltf";
+  std::ofstream(f) << lampRoomGltf();
+  for (const char* n : {"1", "16"}) {
+    const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "lamp.glb").string(), "--subdivide", n, "--progress", "none"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    // One line: the file, the share lost or gained (84% lost; 11% gained), what to do.
+    const std::string prefix = "warning: lamp.gltf: the light of this closed scene does not balance: ";
+    const size_t at = r.err.find(prefix);
+    ASSERT_NE(at, std::string::npos) << r.err;
+    const std::string line = r.err.substr(at, r.err.find('\n', at) - at);
+    const int percent = std::stoi(line.substr(prefix.size()));
+    const bool lost = n == std::string("1");
+    EXPECT_EQ(line.substr(prefix.size(), line.find('(') - prefix.size() + 1),
+              std::to_string(percent) + (lost ? "% of the emitted power is lost (" : "% of the emitted power is gained ("))
+        << line;
+    EXPECT_NE(line.find(lost ? "(energy.escapedFraction 0." : "(energy.escapedFraction -0."), std::string::npos) << line;
+    EXPECT_NE(line.find("); the patches are too coarse where the light falls: refine with --subdivide or --max-edge"), std::string::npos) << line;
+    EXPECT_NEAR(percent, lost ? 84 : 11, 2) << line;
+  }
+  for (const char* scene : {"floor_emitter_cube.gltf", "cornell_box.gltf"}) {
+    const RunResult r = radbake({"bake", (kTestData / "scenes" / scene).string(), "-o", (tempDir() / "ok.glb").string(), "--progress", "none"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find("does not balance"), std::string::npos) << scene << ": " << r.err;
+  }
+}
+
 TEST(BadInput, UnwritableOutputIsExit4) {
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "furnace_cube.gltf").string(), "-o",
                                "/nonexistent-dir/out.glb", "--progress", "none"});
