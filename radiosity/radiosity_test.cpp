@@ -343,6 +343,33 @@ Primitive boxPrimitive(const Vec3& lo, const Vec3& hi, bool inward, int material
   return p;
 }
 
+// A furnace made the way Blender exports a cube: one primitive whose faces each have their own four
+// vertices (24 in all), subdivided at a rate that is not a power of two. The points along an edge
+// two faces share must come out with the same bits from both faces, or the box is not found closed
+// (its edges do not match) and closure is lost: the rows of its unknowns are not held to 1, and a
+// closed double-sided object's inside is not known to be dark. Until 2026-12-03 each face
+// interpolated an edge from its own lower vertex index: all 96 unknowns lost their closure at N = 3.
+TEST(Closure, AnUnweldedBoxIsClosedAtAnyRate) {
+  Scene scene;
+  scene.materials = {material("furnace", 0.5, 1)};
+  scene.primitives.push_back(boxPrimitive({0.1, 0.2, 0.3}, {1.3, 1.1, 1.7}, true, 0));
+  for (int n : {3, 5}) {
+    TessellateOptions t;
+    t.subdivide = n;
+    const PatchMesh mesh = tessellate(scene, t);
+    for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+      RadiosityOptions o;
+      o.transport = transport;
+      o.relativeResidual = 1e-10;
+      const Solution s = solveRadiosity(scene, mesh, o);
+      EXPECT_EQ(s.enclosedUnknowns, mesh.positions.size()) << "N = " << n;
+      double worst = 0;
+      for (const Vec3& L : s.vertexRadiance) worst = std::max(worst, std::abs(L.x - 2));
+      EXPECT_LT(worst, 1e-5) << "N = " << n << (transport == TransportMode::kExact ? ", exact" : ", hierarchical");
+    }
+  }
+}
+
 TEST(Visibility, NoLightLeaksOutOfAClosedBox) {
   // A lamp box (glowing inside, closed, its outside a zero-thickness shell on the same corners)
   // floats in a room. Its outside and the room must stay exactly black at every vertex, including

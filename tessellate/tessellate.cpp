@@ -458,12 +458,16 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
     const bool triangle = f.q[2] == f.q[3];
     std::array<Vec3, 4> corner;
     for (int k = 0; k < 4; ++k) corner[k] = prim.positions[f.q[k]];
-    // Points on a face edge are computed from the edge's endpoints in index order, so the
-    // neighbouring face produces the same bits and the two weld.
+    // Points on a face edge are computed from the edge's endpoints in the order of their
+    // positions (then indices), so the neighbouring face produces the same bits: the two weld, and
+    // the edge matches for the closedness test (Enclosures) also where each face has its own
+    // vertices, as in Blender's export of a cube (24 vertices). In index order, such a box was
+    // found open at every rate but a power of two.
     auto edgePoint = [&](uint32_t va, uint32_t vb, int k) -> std::pair<Vec3, PointId> {
       if (k == 0 || va == vb) return {prim.positions[va], {0, va, 0, 0, 0}};
       if (k == n) return {prim.positions[vb], {0, vb, 0, 0, 0}};
-      if (va > vb) { std::swap(va, vb); k = n - k; }
+      const Vec3 &a = prim.positions[va], &b = prim.positions[vb];
+      if (std::tie(b.x, b.y, b.z, vb) < std::tie(a.x, a.y, a.z, va)) { std::swap(va, vb); k = n - k; }
       return {lerp(prim.positions[va], prim.positions[vb], double(k) / n), {1, va, vb, k, 0}};
     };
     for (int j = 0; j <= n; ++j)
