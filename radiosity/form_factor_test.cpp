@@ -549,6 +549,44 @@ TEST(PatchPatchFactor, ReferenceCasesAndReciprocity) {
   report("reciprocity A1 F12 = A2 F21", worstRecip);
 }
 
+// The constant method's factor at a hierarchical walk's tolerance (1e-4) for pairs closer than the
+// receiver's size (gap over its diameter from 0.5 to 1): there it takes a low-order Gauss rule
+// instead of tanh-sinh, and must stay within its tolerance of tanh-sinh's answer (patchPatchFactor,
+// good to about 1e-13), facing, tilted and cut by each other's planes alike.
+TEST(ConstantPatchFactor, NearPairsMeetTheirTolerance) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::array<Vec3, 4> from{Vec3{-0.5, 0, -0.5}, Vec3{-0.5, 0, 0.5}, Vec3{0.5, 0, 0.5}, Vec3{0.5, 0, -0.5}};  // faces +y
+  const double ra = std::sqrt(0.5);
+  int checked = 0;
+  double worst = 0;
+  while (checked < 200) {
+    Vec3 axis{u(rng), u(rng), u(rng)};
+    if (length(axis) < 0.1) continue;
+    axis = normalize(axis);
+    Vec3 side = normalize(cross(axis, std::abs(axis.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+    const Vec3 up = cross(axis, side);
+    const double size = 0.3 + 0.7 * (u(rng) + 1) / 2, rb = size * std::sqrt(0.5);
+    const double ratio = 0.5 + 0.49 * (u(rng) + 1) / 2;
+    Vec3 dir{u(rng), std::abs(u(rng)) + 0.2, u(rng)};
+    dir = normalize(dir);
+    const Vec3 centre = dir * (2 * ra * ratio + ra + rb);
+    std::array<Vec3, 4> to;
+    for (int k = 0; k < 4; ++k) {
+      const double s = (k == 1 || k == 2) ? 0.5 : -0.5, t = (k >= 2) ? 0.5 : -0.5;
+      to[k] = centre + (side * s + up * t) * size;
+    }
+    if (dot(axis, centre) > 0) std::swap(to[1], to[3]);  // face back toward `from`, mostly
+    const double exact = patchPatchFactor(from.data(), 4, to.data(), 4);
+    if (!(exact > 1e-6)) continue;  // sees nothing (or next to nothing) of it
+    const double e = std::abs(constantPatchFactor(from, to, 1e-4) - exact) / exact;
+    worst = std::max(worst, e);
+    EXPECT_LT(e, 1e-4) << "ratio " << ratio << ", F " << exact;
+    ++checked;
+  }
+  report("constant factor at 1e-4, 0.5 <= gap/size < 1 (200 pairs)", worst);
+}
+
 TEST(PatchPatchFactor, OneSidedAndCoplanar) {
   const Vec3 floor[4] = {{0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}};
   const Vec3 floor2[4] = {{1, 0, 0}, {1, 0, 1}, {2, 0, 1}, {2, 0, 0}};
