@@ -314,16 +314,18 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
     scene.warnings.push_back(message.str());
   }
   // In a closed scene the light must balance; where it does not, the patches are too coarse for
-  // where the light falls (a lamp 2 cm under a ceiling made of a few patches: 84% unaccounted for
-  // at one patch a face, 11% too much at 16×16). 5% is far above what a fine enough bake leaves
-  // (1e-6 to 4e-4 on the test cubes).
+  // where the light falls (a lamp 2 cm under a ceiling: 84% unaccounted for at one patch a face,
+  // 10% too much at 4×4, with either transport), or the hierarchical transport's links are (the
+  // same room at 16×16: 11% too much, the exact transport 0.2%; docs/radiosity.md, "Not done
+  // yet"). 5% is far above what a fine enough bake leaves (1e-6 to 4e-4 on the test cubes).
   const double escaped = solution.emittedPower > 0 ? 1 - solution.absorbedPower / solution.emittedPower : 0;
   if (solution.lightEnclosed && std::abs(escaped) > kUnbalancedLight) {
     std::ostringstream message;
     message << std::filesystem::path(options.input).filename().string() << ": the light of this closed scene does not balance: "
             << std::lround(std::abs(escaped) * 100) << "% of the emitted power is " << (escaped > 0 ? "lost" : "gained")
             << " (energy.escapedFraction " << std::setprecision(3) << escaped
-            << "); the patches are too coarse where the light falls: refine with --subdivide or --max-edge";
+            << "); the patches or the transport's links are too coarse where the light falls: refine with --subdivide or "
+               "--max-edge, or tighten --accuracy";
     scene.warnings.push_back(message.str());
   }
   progress.stage("export");
