@@ -106,10 +106,12 @@ int gaussOrderForRatio(double ratio, double relativeTolerance);
 // included).
 double patchPatchFactor(const Vec3* from, int fromCount, const Vec3* to, int toCount, double change = 1e-8);
 
-// F(A -> B) for the constant-patch method: patchPatchFactor when the quads are
-// closer than A's size, else tensor Gauss-Legendre over A of the analytic point
-// factor, its order from gaussOrderForRatio (distance between bounding spheres
-// over A's diameter) for `relativeTolerance`.
+// F(A -> B) for the constant-patch method: tensor Gauss-Legendre over A of the
+// analytic point factor, its order from gaussOrderForRatio (distance between
+// bounding spheres over A's diameter) for `relativeTolerance`, where that ratio
+// is at least 1, or from 0.5 where the order is at most 6 (then over the part of
+// A in front of B's plane); closer, patchPatchFactor (tanh-sinh) to a relative
+// change of a hundredth of the tolerance.
 double constantPatchFactor(const std::array<Vec3, 4>& from, const std::array<Vec3, 4>& to,
                            double relativeTolerance = 1e-7);
 

@@ -526,10 +526,6 @@ std::array<double, 4> pairVisibility(const Sight& sight, const Vec3& n, const st
   return visibleFraction(sight, n, q, qNormal, rays);
 }
 
-// K_ij of one source patch for vertex i (the exact kernel times its visible fraction), appended to
-// `row`. `ignore` is i's ignore list with one free slot at its end for the source. A pair fainter
-// than `faint` gets one visibility ray (pairVisibility; 0: the exact transport's five probes always).
-// Returns the rays it traced.
 // Whether a vertex at p (receiving normal nrm) takes anything from the quad q (normal m) in K: some
 // corner above its horizon, and p not behind q's plane by more than `epsilon` (a vertex of a curved
 // surface off its own non-planar patch's plane, whose limit would be ill-conditioned). The sky
@@ -540,6 +536,10 @@ bool kernelReaches(const Vec3& p, const Vec3& nrm, const std::array<Vec3, 4>& q,
   return above && !(dot(m, p - q[0]) < -epsilon);
 }
 
+// K_ij of one source patch for vertex i (the exact kernel times its visible fraction), appended to
+// `row`. `ignore` is i's ignore list with one free slot at its end for the source. A pair fainter
+// than `faint` gets one visibility ray (pairVisibility; 0: the exact transport's five probes always).
+// Returns the rays it traced.
 size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, const KernelOptions& kernelOptions,
                       size_t i, size_t source, std::vector<uint32_t>& ignore, Row& row, double faint = 0) {
   const Vec3 p = mesh.positions[i], nrm = recv.normal[i], a = recv.approach[i];
@@ -1142,8 +1142,8 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
 using NearPair = std::function<size_t(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row)>;
 using CoverPair = std::function<double(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays)>;
 
-// The sky fractions with the cluster walk (cover mode): near patches exactly (skyCover), far
-// clusters as n · w |w · Σ A n| / (π |w|⁴) per vertex, w from the vertex to the cluster's centroid.
+// The sky fractions with the cluster walk (cover mode): near patches exactly (`coverPair`), far
+// clusters as n · w |w · Σ A n| / (π |w|⁴) per receiver, w from it to the cluster's centroid.
 std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
                                              const Closure& closure, const ReceiverGroups& groups, double accuracy,
                                              const CoverPair& coverPair, MemoryBudget& memory, Ticker& ticker, size_t& rays,
@@ -1190,8 +1190,8 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
   return sky;
 }
 
-// The hierarchical transport: the walk in transport mode over every patch, exact kernels for the
-// (vertex, patch) pairs (addPatchKernel), links stored per receiver group; then closure. The
+// The hierarchical transport: the walk in transport mode over every patch, the exact (receiver,
+// patch) pairs by `nearPair` (nearPairs), links stored per receiver group; then closure. The
 // receiver tree and leaves move from `groups` into the result once the walk is done (a copy held
 // beside them during the walk was about 176 bytes per gathering vertex).
 Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
