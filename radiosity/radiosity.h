@@ -52,6 +52,7 @@ struct Solution {
   bool interreflection = false;  // false: emission only (L = L⁰)
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
   size_t farLinks = 0;           // hierarchical: links from receivers to whole source clusters
+  size_t refinedLinks = 0;       // hierarchical: links walked again for the light they carry
   size_t clusterRays = 0;        // hierarchical: visibility rays shot at clusters
   size_t nearRays = 0;           // hierarchical: visibility rays of the exact (vertex, patch) pairs
   size_t clusters = 0;           // hierarchical: nodes of the source and receiver trees

@@ -355,7 +355,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
                     {"transport", radiosityOptions.transport == TransportMode::kHierarchical ? "hierarchical" : "exact"}, {"accuracy", options.accuracy},
                     {"matrixEntries", solution.matrixEntries}, {"matrixFree", solution.matrixFree},
-                    {"farLinks", solution.farLinks}, {"clusterRays", solution.clusterRays}, {"nearRays", solution.nearRays}, {"clusters", solution.clusters},
+                    {"farLinks", solution.farLinks}, {"refinedLinks", solution.refinedLinks}, {"clusterRays", solution.clusterRays}, {"nearRays", solution.nearRays}, {"clusters", solution.clusters},
                     {"linkErrorBound", solution.linkErrorBound}, {"transportBytes", solution.transportBytes},
                     {"enclosedUnknowns", solution.enclosedUnknowns}, {"closureCorrection", solution.closureCorrection},
                     {"darkUnknowns", solution.darkUnknowns}}},
