@@ -2,8 +2,9 @@
 """A closed unit room (the cube [0,1]^3 seen from inside, rho 0.5, one quad a face, each face its own
 four vertices as Blender exports a cube) lit by a double-sided lamp (0.2 x 0.2, rho 0.5, L0 1) 2 cm
 under its ceiling, as a glTF with its buffer embedded: the scene where the hierarchical transport's
-links, which judge visibility by area, miss the ceiling spot the lamp hides from the walls
-(docs/results.md, second session of 2026-12-03). The same scene as lampRoomGltf() in tests/cli_test.cpp.
+links, judged by area alone, missed the ceiling spot the lamp hides from the walls (docs/results.md,
+second session of 2026-12-03) until they were refined by their light (docs/radiosity.md, "Refinement
+by light"). The same scene as lampRoomGltf() in tests/cli_test.cpp.
 
   lamp_room.py OUT.gltf
 """
