@@ -123,7 +123,8 @@ struct Hierarchical {
            linkCount * sizeof(ClusterLink) +
            (source.nodes.size() + groups.tree.nodes.size()) * sizeof(TreeNode) +
            (source.order.size() + groups.tree.order.size() + groups.leafOf.size() + groups.parent.size()) * sizeof(uint32_t) +
-           nodeError.size() * sizeof(double) + shapeAreas.size() * sizeof(shapeAreas[0]);
+           (nodeError.size() + rowScale.size() + farScale.size()) * sizeof(double) + flat.size() +
+           normal.size() * sizeof(Vec3) + shapeAreas.size() * sizeof(shapeAreas[0]);
   }
 };
 
