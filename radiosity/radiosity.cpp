@@ -113,7 +113,6 @@ struct Hierarchical {
   std::vector<double> nodeError;                    // per receiver node, Σ of its links' error estimates
   std::vector<double> rowScale;                     // closure (0: dark or facing nothing)
   std::vector<double> farScale;                     // closure of the far share alone (kFarClosure)
-  std::vector<uint8_t> flat;                        // Receivers::flat: closure may scale the far share alone
   std::vector<Vec3> normal;                         // receiving normal per vertex
   size_t rays = 0;      // the walk's cluster rays
   size_t nearRays = 0;  // the (vertex, patch) pairs' rays
@@ -123,7 +122,7 @@ struct Hierarchical {
            linkCount * sizeof(ClusterLink) +
            (source.nodes.size() + groups.tree.nodes.size()) * sizeof(TreeNode) +
            (source.order.size() + groups.tree.order.size() + groups.leafOf.size() + groups.parent.size()) * sizeof(uint32_t) +
-           (nodeError.size() + rowScale.size() + farScale.size()) * sizeof(double) + flat.size() +
+           (nodeError.size() + rowScale.size() + farScale.size()) * sizeof(double) +
            normal.size() * sizeof(Vec3) + shapeAreas.size() * sizeof(shapeAreas[0]);
   }
 };
@@ -1313,9 +1312,9 @@ void walkInto(Hierarchical& h, const WalkSetup& setup, const NearPair& nearPair,
 }
 
 // Closure (as applyClosure does for exact rows): each row's total, near entries plus the far share
-// n_i · Φ of L ≡ 1 (whose moments are Σ A n), brought to 1 where the rules say: by the far share
-// alone where that is within kFarClosure of itself, else the whole row.
-void closeRows(Hierarchical& h, Closure& closure) {
+// n_i · Φ of L ≡ 1 (whose moments are Σ A n), brought to 1 where the rules say: at a flat receiver
+// by the far share alone where that is within kFarClosure of itself, else the whole row.
+void closeRows(Hierarchical& h, const Receivers& recv, Closure& closure) {
   const size_t nv = h.near.size();
   for (size_t v = 0; v < nv; ++v) h.rowScale[v] = h.groups.leafOf[v] == kNoLeaf ? 0 : 1;  // 0: gathers nothing
   h.farScale.assign(nv, 1.0);
@@ -1330,7 +1329,7 @@ void closeRows(Hierarchical& h, Closure& closure) {
     for (const auto& entry : h.near[v]) sum += entry.second;
     if (!closure.scales(v, sum)) continue;
     const double far = farOne[v].x, scale = far > 0 ? (far - (sum - 1)) / far : 0;
-    if (h.flat[v] && scale >= 1 / kFarClosure && scale <= kFarClosure) h.farScale[v] = scale;
+    if (recv.flat[v] && scale >= 1 / kFarClosure && scale <= kFarClosure) h.farScale[v] = scale;
     else h.rowScale[v] = 1 / sum;
   }
 }
@@ -1355,11 +1354,10 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   h.groups = std::move(groups);
   h.rowScale.assign(nv, 0.0);
   h.near.resize(nv);
-  h.flat = recv.flat;
   MemoryBudget memory;
   memory.limit = options.transportMemoryBytes;
   walkInto(h, {mesh, occlusion, recv, h.groups, h.source, all, false, options.accuracy, memory}, nearPair, ticker);
-  closeRows(h, closure);
+  closeRows(h, recv, closure);
   return h;
 }
 
@@ -1857,7 +1855,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
               kRefineProgress[1], L, gathered, solution);
       Ticker refineTicker(options.progress, n, kRefineProgress[1], kRefineProgress[2]);
       solution.refinedLinks = refineByLight(H, mesh, occlusion, options, *recv, nearPair, L, refineTicker);
-      if (solution.refinedLinks > 0) closeRows(H, *closure);
+      if (solution.refinedLinks > 0) closeRows(H, *recv, *closure);
       solveFrom = kRefineProgress[2];
       solution.matrixEntries = H.nearEntries;
       solution.farLinks = H.linkCount;

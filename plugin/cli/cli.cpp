@@ -316,8 +316,9 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   // In a closed scene the light must balance; where it does not, the patches are too coarse for
   // where the light falls (a lamp 2 cm under a ceiling: 84% unaccounted for at one patch a face,
   // 10% too much at 4×4, with either transport), or the hierarchical transport's links are (the
-  // same room at 16×16: 11% too much, the exact transport 0.2%; docs/radiosity.md, "Not done
-  // yet"). 5% is far above what a fine enough bake leaves (1e-6 to 4e-4 on the test cubes).
+  // same room at 16×16 was 11% off until links were refined by their light, 2026-12-03; now 0.2%
+  // like the exact transport). 5% is far above what a fine enough bake leaves (1e-6 to 4e-4 on
+  // the test cubes).
   const double escaped = solution.emittedPower > 0 ? 1 - solution.absorbedPower / solution.emittedPower : 0;
   if (solution.lightEnclosed && std::abs(escaped) > kUnbalancedLight) {
     std::ostringstream message;
