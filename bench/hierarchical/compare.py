@@ -34,6 +34,9 @@ def main():
     mean = sum(lum_a) / len(lum_a)
     diffs = [abs(x - y) for x, y in zip(lum_a, lum_b)]
     rms = math.sqrt(sum(d * d for d in diffs) / len(diffs))
+    if not mean > 0:  # an unlit scene: no mean to relate the differences to
+        print(f"vertices {len(lum_a)}  mean {mean:.6g}  rms {rms:.6g}  max {max(diffs):.6g} (absolute: the scene is unlit)")
+        return
     print(f"vertices {len(lum_a)}  mean {mean:.6g}  rms {100 * rms / mean:.3f}%  max {100 * max(diffs) / mean:.3f}%")
 
 
