@@ -10,7 +10,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <span>
 #include <string>
 #include <tuple>
@@ -557,12 +556,12 @@ std::array<double, 4> patchFraction(const Sight& sight, const Vec3& n, const std
 // A source patch covering more of a receiver's hemisphere than this (its unoccluded factor) is
 // split in four for its visibility, and so are its pieces, down to this size: a piece is judged
 // by its probes (probedFraction), and a wrong verdict (five probes agreeing where a shadow clips
-// the piece) costs at most its factor. Where four sibling pieces' verdicts differ (seen, hidden, partly), a
-// shadow's edge runs through them and they are split again, down to kBoundaryShare of it. Whole
-// walls of a Blender room (one patch of 4–6 m each at the default tessellation) were judged by 21
-// rays from a Suzanne crease: an independent ray count gave the walls 0.87 of such a vertex's
-// hemisphere, the kernels 0.77, the floor 0 (its five probes blocked while its front part is in
-// view). On the level-0 Blender room against pieces of 0.001 (emitters' weighted): the bake was
+// the piece) costs at most its factor. Where four sibling pieces' verdicts differ (seen, hidden,
+// partly), a shadow's edge runs through them and they are split again, down to kBoundaryShare of
+// it. Whole walls of a Blender room (one patch of 4–6 m each at the default tessellation) were
+// judged by 21 rays from a Suzanne crease: an independent ray count gave the walls 0.87 of such a
+// vertex's hemisphere, the kernels 0.77, the floor 0 (its five probes blocked while its front part
+// is in view). On the level-0 Blender room against pieces of 0.001 (emitters' weighted): the bake was
 // 19.6% of the mean radiance off (RMS; 78% at worst), and with these values 0.27% (2.5%), at 3×
 // the (vertex, patch) pairs' rays; uniform pieces of 0.005 without the sibling rule needed 75M rays
 // for 0.45% (2.0%), and 0.02 without it was 1.9% (12%).
@@ -587,7 +586,7 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
     const double h = parent.half / 2;
     std::array<Piece, 4> child;
     std::array<double, 4> factor{};
-    std::array<std::optional<std::array<double, 4>>, 4> verdict;
+    std::array<std::array<double, 4>, 4> verdict{};  // of the children judged here (slot[k] >= 0)
     // The children small enough to judge have their probes traced together (20 rays in three
     // packets of 8 instead of four of 5).
     std::array<Vec3, 20> probes;
@@ -596,7 +595,8 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
     for (int k = 0; k < 4; ++k) {
       slot[k] = -1;
       child[k] = {parent.s + (k == 1 || k == 2 ? h : -h), parent.t + (k >= 2 ? h : -h), h};
-      const std::array<Vec3, 4> corners{child[k].at(q, -1, -1), child[k].at(q, 1, -1), child[k].at(q, 1, 1), child[k].at(q, -1, 1)};
+      const std::array<Vec3, 4> corners{child[k].at(q, -1, -1), child[k].at(q, 1, -1), child[k].at(q, 1, 1),
+                                        child[k].at(q, -1, 1)};
       factor[k] = pointPolygonFactor(sight.from, n, corners.data(), 4);
       if (!(factor[k] > 0)) continue;  // below the horizon, or behind
       if (factor[k] > largestPiece && depth < kVisibilityDepth) {
@@ -614,21 +614,22 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
     int kinds = 0;  // bit 0: a piece seen whole, 1: hidden whole, 2: partly
     for (int k = 0; k < 4; ++k) {
       if (slot[k] < 0) continue;
-      verdict[k] = probedFraction(sight, n, q, qNormal, child[k], int(std::count(seen + slot[k], seen + slot[k] + 5, true)), rays);
-      const auto& f = *verdict[k];
-      kinds |= f == std::array<double, 4>{1, 1, 1, 1} ? 1 : f == std::array<double, 4>{} ? 2 : 4;
+      const int through = int(std::count(seen + slot[k], seen + slot[k] + 5, true));
+      verdict[k] = probedFraction(sight, n, q, qNormal, child[k], through, rays);
+      kinds |= verdict[k] == std::array<double, 4>{1, 1, 1, 1} ? 1 : verdict[k] == std::array<double, 4>{} ? 2 : 4;
     }
     const bool differ = kinds != 0 && kinds != 1 && kinds != 2;
     for (int k = 0; k < 4; ++k) {
-      if (!verdict[k]) continue;
+      if (slot[k] < 0) continue;
       if (differ && factor[k] > largestPiece * kBoundaryShare && depth < kVisibilityDepth) {
         stack.push_back({child[k], depth});
         continue;
       }
-      const auto weight = shapeFunctions(child[k].s, child[k].t);  // their mean over the piece (kernel-weighted means: the same errors)
+      // The shape functions' mean over the piece (kernel-weighted means gave the same errors).
+      const auto weight = shapeFunctions(child[k].s, child[k].t);
       for (int j = 0; j < 4; ++j) {
         all[j] += factor[k] * weight[j];
-        visible[j] += factor[k] * weight[j] * (*verdict[k])[j];
+        visible[j] += factor[k] * weight[j] * verdict[k][j];
       }
     }
   }
@@ -641,7 +642,7 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
 
 // How finely a pair's visibility is resolved (pairVisibility): a patch whose factor is below `faint`
 // gets one ray, one above `piece` is split (visibleFraction). Both are divided by the patch's
-// brightness weight (PairWeights).
+// emission weight (emissionWeight; the sky cover, which is geometry, takes none).
 struct PairSight {
   double faint = 0;
   double piece = kVisibilityPiece;
