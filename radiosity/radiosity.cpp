@@ -1935,6 +1935,102 @@ bool passesCutout(const Scene& scene, const PatchMesh& mesh, uint32_t patch, dou
 
 }  // namespace
 
+std::vector<double> directLightError(const Scene& scene, const PatchMesh& mesh) {
+  std::vector<double> error(mesh.patches.size());
+  Occlusion occlusion(mesh);
+  if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
+  std::vector<uint32_t> emitters;
+  for (size_t k = 0; k < mesh.patches.size(); ++k)
+    if (luminance(mesh.patches[k].emission) > 0) emitters.push_back(uint32_t(k));
+  if (emitters.empty() && scene.lights.empty()) return error;
+  // Points just inside the patch (a corner's value as its patch sees it: a vertex at a block's foot
+  // is lit from one side and dark from the other), corners first, then the centre and the edge
+  // midpoints, in the parameters [-1, 1]² of pointOnPatch.
+  constexpr double kIn = 1 - 1e-3;
+  constexpr double kSample[9][2] = {{-kIn, -kIn}, {kIn, -kIn}, {kIn, kIn}, {-kIn, kIn}, {0, 0},
+                                    {0, -kIn},    {kIn, 0},    {0, kIn},   {-kIn, 0}};
+  std::vector<double> level(mesh.patches.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.patches.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const Patch& patch = mesh.patches[k];
+      const auto q = corners(mesh, patch);
+      const uint32_t self[2] = {uint32_t(k), uint32_t(patch.twin)};
+      const std::span<const uint32_t> ignore(self, patch.twin >= 0 ? 2 : 1);
+      double value[9];
+      size_t rays = 0;
+      for (int i = 0; i < 9; ++i) {
+        const Vec3 x = pointOnPatch(q, kSample[i][0], kSample[i][1]);
+        const Sight sight{occlusion, mesh, x + patch.normal * (occlusion.epsilon() * 10), ignore, {}};
+        double d = luminance(directIrradiance(scene.lights, sight, x, patch.normal)) / kPi;
+        for (uint32_t e : emitters) {
+          if (e == k || int(e) == patch.twin) continue;
+          const Patch& source = mesh.patches[e];
+          const auto qe = corners(mesh, source);
+          if (!(dot(source.normal, x - qe[0]) > 0)) continue;  // behind the emitter: it sends nothing here
+          const double factor = pointPolygonFactor(x, patch.normal, qe.data(), 4);
+          if (!(factor > 0)) continue;
+          const auto seen = visibleFraction(sight, patch.normal, qe, source.normal, kVisibilityPiece / 10, rays);
+          d += luminance(source.emission) * factor * (seen[0] + seen[1] + seen[2] + seen[3]) / 4;
+        }
+        value[i] = luminance(patch.reflectance) * d;
+      }
+      double worst = 0;
+      for (int i = 4; i < 9; ++i) {
+        const auto n = shapeFunctions(kSample[i][0], kSample[i][1]);
+        worst = std::max(worst, std::abs(value[i] - (n[0] * value[0] + n[1] * value[1] + n[2] * value[2] + n[3] * value[3])));
+      }
+      error[k] = worst;
+      level[k] = (value[0] + value[1] + value[2] + value[3] + 4 * value[4]) / 8;
+    }
+  });
+  double sum = 0, area = 0;
+  for (size_t k = 0; k < mesh.patches.size(); ++k) {
+    sum += level[k] * mesh.patches[k].area;
+    area += mesh.patches[k].area;
+  }
+  const double mean = area > 0 ? sum / area : 0;
+  for (double& e : error) e = mean > 0 ? e / mean : 0;
+  return error;
+}
+
+// A split makes three more patches, more where fans and balance follow, so a round takes at most a
+// quarter of what is left of the budget in cells.
+Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches) {
+  Refinement summary;
+  summary.maxPatches = maxPatches > 0 ? maxPatches : std::max<size_t>(20000, 4 * mesh.patches.size());
+  constexpr int kMaxRounds = 2 * kMaxRefineLevel;
+  for (int round = 0;; ++round) {
+    const std::vector<double> error = directLightError(scene, mesh);
+    // Each cell above the target, by what its patches add to the squared error integrated over the
+    // area (e² A): the budget goes first where the field is most wrong over the most area, not to
+    // the ever smaller cells along a sharp shadow's edge, whose error stays near 1 at any size.
+    std::map<Cell, double> above;  // a double-sided patch and its twin share their cell
+    summary.worst = 0;
+    for (size_t k = 0; k < mesh.patches.size(); ++k) {
+      summary.worst = std::max(summary.worst, error[k]);
+      const Cell& cell = mesh.patches[k].cell;
+      if (error[k] > target && cell.primitive >= 0 && cell.level < kMaxRefineLevel)
+        above[cell] += error[k] * error[k] * mesh.patches[k].area;
+    }
+    if (above.empty() || round == kMaxRounds) break;
+    const size_t room = mesh.patches.size() < summary.maxPatches ? (summary.maxPatches - mesh.patches.size()) / 4 : 0;
+    if (room == 0) {
+      summary.budgetReached = true;
+      break;
+    }
+    std::vector<std::pair<double, Cell>> worstFirst;
+    for (const auto& [cell, e] : above) worstFirst.push_back({e, cell});
+    std::stable_sort(worstFirst.begin(), worstFirst.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    worstFirst.resize(std::min(worstFirst.size(), room));
+    for (const auto& [e, cell] : worstFirst) options.split.insert(cell);
+    summary.splitCells += worstFirst.size();
+    ++summary.rounds;
+    mesh = tessellate(scene, options);
+    options.split = mesh.split;
+  }
+  return summary;
+}
+
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options) {
   Solution solution;
   solution.method = options.method;

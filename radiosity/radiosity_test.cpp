@@ -808,6 +808,88 @@ TEST(Visibility, ALargeEmitterIsSeenAroundAPlateBelowIt) {
   }
 }
 
+// Adaptive refinement keeps a furnace exact: cells split to different depths on a box made the way
+// Blender exports a cube (own vertices per face, N = 3), with 2:1 balance across its edges and fans
+// of triangles beside finer cells, is still closed (every unknown enclosed) and L = 2 everywhere.
+TEST(Refinement, AFurnaceStaysExactWithRefinedCellsAndFans) {
+  Scene scene;
+  scene.materials = {material("furnace", 0.5, 1)};
+  scene.primitives.push_back(boxPrimitive({0.1, 0.2, 0.3}, {1.3, 1.1, 1.7}, true, 0));
+  TessellateOptions t;
+  t.subdivide = 3;
+  t.split = {{0, 0, 0, 0, 0}, {0, 0, 1, 1, 1}, {0, 0, 2, 3, 3}, {0, 3, 0, 1, 1}, {0, 5, 0, 2, 0}, {0, 5, 1, 5, 1}};
+  const PatchMesh mesh = tessellate(scene, t);
+  size_t triangles = 0;
+  for (const Patch& p : mesh.patches) triangles += p.v[2] == p.v[3];
+  EXPECT_GT(triangles, 20u);  // fans were made
+  EXPECT_GT(mesh.split.size(), t.split.size());  // and balance split more
+  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+    RadiosityOptions o;
+    o.transport = transport;
+    o.relativeResidual = 1e-10;
+    const Solution s = solveRadiosity(scene, mesh, o);
+    EXPECT_EQ(s.enclosedUnknowns, mesh.positions.size());
+    double worst = 0;
+    for (const Vec3& L : s.vertexRadiance) worst = std::max(worst, std::abs(L.x - 2));
+    EXPECT_LT(worst, 1e-5) << (transport == TransportMode::kExact ? "exact" : "hierarchical");
+  }
+}
+
+// Refinement by the direct light against a closed form: a 4 × 4 floor (one quad, ρ 0.5) lit by a
+// point light 2 above it, with a black plate between casting a sharp shadow; the floor sees nothing
+// but the black plate, so its radiance is exactly ρ I cosθ / (π r²) where the light is in view and
+// 0 in the shadow. The bilinear field, sampled on a 101 × 101 grid that is nobody's vertices, is
+// compared with it: refined from 2 × 2, it is several times closer to the answer than a uniform
+// split with more patches, which smears the shadow's edge over a patch.
+TEST(Refinement, APointLightsShadowIsResolvedWithFewerPatchesThanAUniformSplit) {
+  Scene scene;
+  scene.materials = {material("floor", 0.5, 0), material("plate", 0, 0)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));  // faces +y
+  const double px0 = -0.43, px1 = 0.61, pz0 = -0.29, pz1 = 0.67, py = 0.9;
+  scene.primitives.push_back(quadPrimitive({Vec3{px0, py, pz0}, {px0, py, pz1}, {px1, py, pz1}, {px1, py, pz0}}, 1));
+  for (int p = 0; p < 2; ++p) scene.primitives[p].primitive = p;
+  PunctualLight light;
+  light.position = {0.13, 2, 0.07};
+  light.intensity = {4, 4, 4};
+  scene.lights.push_back(light);
+  auto fieldError = [&](const PatchMesh& mesh, size_t& floorPatches) {
+    const Solution s = solveRadiosity(scene, mesh, RadiosityOptions{});
+    floorPatches = 0;
+    for (const Patch& p : mesh.patches) floorPatches += p.material == 0;
+    double squares = 0, sum = 0;
+    int count = 0;
+    for (int i = 0; i < 101; ++i)
+      for (int k = 0; k < 101; ++k) {
+        const Vec3 x{-2 + 4 * (i + 0.5) / 101, 0, -2 + 4 * (k + 0.5) / 101};
+        const Vec3 d = light.position - x;
+        // Where the segment to the light crosses the plate's height.
+        const double t = py / d.y, cx = x.x + t * d.x, cz = x.z + t * d.z;
+        const bool shadowed = cx > px0 && cx < px1 && cz > pz0 && cz < pz1;
+        const double r2 = dot(d, d), truth = shadowed ? 0 : 0.5 * 4 * (d.y / std::sqrt(r2)) / (kPi * r2);
+        const double e = evaluateRadiance(s, mesh, x, {0, 1, 0}).x - truth;
+        squares += e * e;
+        sum += truth;
+        ++count;
+      }
+    return std::sqrt(squares / count) / (sum / count);
+  };
+  TessellateOptions uniform;
+  uniform.subdivide = 64;
+  size_t uniformPatches = 0;
+  const double uniformError = fieldError(tessellate(scene, uniform), uniformPatches);
+  TessellateOptions t;
+  t.subdivide = 2;
+  PatchMesh mesh = tessellate(scene, t);
+  const Refinement r = refineMesh(scene, t, mesh, 0.01, 2000);
+  size_t refinedPatches = 0;
+  const double refinedError = fieldError(mesh, refinedPatches);
+  std::printf("uniform 64x64: %zu floor patches, RMS %.4f; refined: %zu floor patches, RMS %.4f, %d rounds\n", uniformPatches,
+              uniformError, refinedPatches, refinedError, r.rounds);
+  EXPECT_GT(r.rounds, 3);
+  EXPECT_LT(refinedPatches, uniformPatches);
+  EXPECT_LT(refinedError, uniformError / 4);
+}
+
 // A unit room (ρ 0.5, its faces with their own vertices as Blender exports a cube) lit by a
 // double-sided lamp (0.2 × 0.2, L⁰ 1) 2 cm under its ceiling, hierarchical against exact at 12×12
 // patches a face: the bounds, RMS ≤ 0.5% and largest ≤ 3% of the mean radiance. The ceiling

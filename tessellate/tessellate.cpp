@@ -11,6 +11,7 @@
 #include <optional>
 #include <tuple>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace radbake {
 namespace {
@@ -405,23 +406,26 @@ void tessellateSubdivided(const Scene& scene, int primIndex, SubdivisionScheme s
   }
 }
 
+// The receiving normal at a point of a face (weights of its corners): the file's vertex normals
+// interpolated on a smooth surface, the face normal where the file has none (glTF: flat shading).
+Vec3 faceNormalAt(const Primitive& prim, const Face& f, const std::array<double, 4>& w) {
+  if (!prim.hasNormals) return f.normal;
+  Vec3 s{};
+  for (int k = 0; k < 4; ++k) s += prim.normals[f.q[k]] * w[k];
+  return length(s) > 0 ? normalize(s) : f.normal;
+}
+
+double quadArea(const std::array<Vec3, 4>& p) {
+  return 0.5 * length(cross(p[2] - p[0], p[3] - p[1]));  // planar quad (or triangle with p2 == p3)
+}
+
 void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, Welder& welder, PatchMesh& mesh) {
   const Primitive& prim = scene.primitives[primIndex];
   PrimitivePatches& out = mesh.primitives[primIndex];
   const int material = prim.material;
   const std::vector<Face> faces = buildFaces(prim);
 
-  // The receiving normal at a point of a face: the file's vertex normals interpolated on a smooth
-  // surface, the face normal where the file has none (glTF: flat shading).
-  auto normalAt = [&](const Face& f, const std::array<double, 4>& w) {
-    if (!prim.hasNormals) return f.normal;
-    Vec3 s{};
-    for (int k = 0; k < 4; ++k) s += prim.normals[f.q[k]] * w[k];
-    return length(s) > 0 ? normalize(s) : f.normal;
-  };
-  auto quadArea = [&](const std::array<Vec3, 4>& p) {
-    return 0.5 * length(cross(p[2] - p[0], p[3] - p[1]));  // planar quad (or triangle with p2 == p3)
-  };
+  auto normalAt = [&](const Face& f, const std::array<double, 4>& w) { return faceNormalAt(prim, f, w); };
 
   if (n == 1 && !flat) {
     // Keep the glTF vertices when every vertex welds to exactly one patch vertex.
@@ -430,6 +434,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
     const size_t firstPatch = mesh.patches.size();
     for (const Face& f : faces) {
       Patch patch = makePatch({}, material, primIndex, f.normal, 0);
+      patch.cell = {primIndex, int(&f - faces.data()), 0, 0, 0};
       for (int k = 0; k < 4; ++k) {
         std::array<double, 4> w{};
         w[k] = 1;
@@ -495,6 +500,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
       for (int i = 0; i < n; ++i) {
         const int c0 = j * (n + 1) + i, c1 = c0 + 1, c2 = c0 + n + 2, c3 = c0 + n + 1;
         Patch patch = makePatch({grid[c0], grid[c1], grid[c2], grid[c3]}, material, primIndex, f.normal, 0);
+        patch.cell = {primIndex, int(fi), 0, i, j};
         const bool collapsed = triangle && j == n - 1;  // the top row of a triangle: triangles
         patch.area = quadArea({mesh.positions[grid[c0]], mesh.positions[grid[c1]], mesh.positions[grid[c2]],
                                mesh.positions[grid[c3]]});
@@ -686,6 +692,241 @@ void tessellateBezier(const Scene& scene, const TessellateOptions& options, Weld
   mesh.generated.push_back(std::move(surface));
 }
 
+// ---- Adaptive refinement --------------------------------------------------------------------
+//
+// Cells of a flat face's n×n grid split in four, recursively (TessellateOptions::split). Every
+// point is computed from its grid coordinates as the grid's own points are (an edge point from the
+// edge's endpoints in position order), so a point shared by two cells, two faces or two primitives
+// of the same rate has the same bits on both sides: conformity is checked by position.
+
+struct PositionHash {
+  size_t operator()(const std::array<uint64_t, 3>& k) const {
+    size_t h = 1469598103934665603ull;
+    for (uint64_t v : k) h = (h ^ v) * 1099511628211ull;
+    return h;
+  }
+};
+using PositionSet = std::unordered_set<std::array<uint64_t, 3>, PositionHash>;
+std::array<uint64_t, 3> positionKey(const Vec3& p) { return {bits(p.x), bits(p.y), bits(p.z)}; }
+
+struct GridPoint {
+  Vec3 position;
+  PointId id;
+  std::array<double, 4> w;  // the face corners' weights (for the normal)
+};
+
+// Point (I, J) of face f's grid of n·2^level cells a side. Ids are reduced to the coarsest level
+// that holds the point, so a point keeps one output vertex whichever cells reach it.
+GridPoint gridPoint(const Primitive& prim, const Face& f, uint32_t fi, int n, int level, long I, long J) {
+  const long N = long(n) << level;
+  const double s = double(I) / double(N), t = double(J) / double(N);
+  GridPoint g{{}, {}, {(1 - s) * (1 - t), s * (1 - t), s * t, (1 - s) * t}};
+  auto onEdge = [&](uint32_t va, uint32_t vb, long k) {
+    if (k == 0 || va == vb) return std::pair{prim.positions[va], PointId{0, va, 0, 0, 0}};
+    if (k == N) return std::pair{prim.positions[vb], PointId{0, vb, 0, 0, 0}};
+    const Vec3 &a = prim.positions[va], &b = prim.positions[vb];
+    if (std::tie(b.x, b.y, b.z, vb) < std::tie(a.x, a.y, a.z, va)) { std::swap(va, vb); k = N - k; }
+    const Vec3 x = lerp(prim.positions[va], prim.positions[vb], double(k) / double(N));
+    int L = level;
+    while (L > 0 && k % 2 == 0) { k /= 2; --L; }
+    return std::pair{x, PointId{1, va, vb, int(k), L}};
+  };
+  std::pair<Vec3, PointId> p;
+  if (J == 0) p = onEdge(f.q[0], f.q[1], I);
+  else if (J == N) p = onEdge(f.q[3], f.q[2], I);
+  else if (I == 0) p = onEdge(f.q[0], f.q[3], J);
+  else if (I == N) p = onEdge(f.q[1], f.q[2], J);
+  else {
+    const std::array<Vec3, 4> c{prim.positions[f.q[0]], prim.positions[f.q[1]], prim.positions[f.q[2]], prim.positions[f.q[3]]};
+    int L = level;
+    while (L > 0 && I % 2 == 0 && J % 2 == 0) { I /= 2; J /= 2; --L; }
+    p = {c[0] * g.w[0] + c[1] * g.w[1] + c[2] * g.w[2] + c[3] * g.w[3], PointId{2, fi, uint32_t(L), int(I), int(J)}};
+  }
+  g.position = p.first;
+  g.id = p.second;
+  return g;
+}
+
+// A primitive's faces, rate and leaf cells under the refinement.
+struct RefinedPrimitive {
+  bool refinable = false;
+  int n = 1;
+  std::vector<Face> faces;
+  std::vector<Cell> leaves;
+  bool cells = false;  // tessellated by its cells (some split, or a neighbour's point on an edge)
+};
+
+void collectLeaves(const std::set<Cell>& split, const Cell& c, std::vector<Cell>& out) {
+  if (c.level < kMaxRefineLevel && split.count(c)) {
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) collectLeaves(split, {c.primitive, c.face, c.level + 1, 2 * c.i + a, 2 * c.j + b}, out);
+  } else {
+    out.push_back(c);
+  }
+}
+
+// Grid coordinates, `extra` levels below a cell's, of the point at fraction k/2^extra along its
+// edge e (0 bottom, 1 right, 2 top, 3 left, counter-clockwise).
+std::pair<long, long> alongEdge(const Cell& c, int e, int extra, long k) {
+  const long m = 1L << extra, i = c.i * m, j = c.j * m;
+  switch (e) {
+    case 0: return {i + k, j};
+    case 1: return {i + m, j + k};
+    case 2: return {i + m - k, j + m};
+    default: return {i, j + m - k};
+  }
+}
+
+struct RefinementPlan {
+  std::vector<RefinedPrimitive> primitives;
+  PositionSet corners;  // of every leaf cell
+};
+
+// Whether edge e of a cell collapses to a point: the top edge of a triangle face's top row.
+bool collapsedEdge(const RefinedPrimitive& rp, const Cell& c, int e) {
+  const Face& f = rp.faces[c.face];
+  return e == 2 && f.q[2] == f.q[3] && (c.j + 1) == (long(rp.n) << c.level);
+}
+
+Vec3 cellPoint(const Primitive& prim, const RefinedPrimitive& rp, const Cell& c, int extra, long I, long J) {
+  return gridPoint(prim, rp.faces[c.face], uint32_t(c.face), rp.n, c.level + extra, I, J).position;
+}
+
+// The leaves under `split` (which grows): a leaf with a point of another cell at a quarter of one
+// of its edges is split too, so that neighbours differ by at most one level and a cell's edge holds
+// at most its midpoint (2:1 balance; the fans below then have at most 8 triangles).
+RefinementPlan planRefinement(const Scene& scene, const TessellateOptions& options, std::set<Cell>& split) {
+  RefinementPlan plan;
+  plan.primitives.resize(scene.primitives.size());
+  if (split.empty() || options.flatPatches) return plan;
+  for (size_t p = 0; p < scene.primitives.size(); ++p) {
+    const Primitive& prim = scene.primitives[p];
+    const SubdivisionScheme scheme = prim.subdivision != SubdivisionScheme::kNone ? prim.subdivision : options.subdivisionSurfaces;
+    if (scheme != SubdivisionScheme::kNone || prim.triangles.empty()) continue;
+    RefinedPrimitive& rp = plan.primitives[p];
+    rp.refinable = true;
+    rp.n = subdivisionFor(prim, options);
+    rp.faces = buildFaces(prim);
+  }
+  for (bool changed = true; changed;) {
+    changed = false;
+    plan.corners.clear();
+    for (size_t p = 0; p < plan.primitives.size(); ++p) {
+      RefinedPrimitive& rp = plan.primitives[p];
+      if (!rp.refinable) continue;
+      rp.leaves.clear();
+      for (size_t f = 0; f < rp.faces.size(); ++f)
+        for (int j = 0; j < rp.n; ++j)
+          for (int i = 0; i < rp.n; ++i) collectLeaves(split, {int(p), int(f), 0, i, j}, rp.leaves);
+      for (const Cell& c : rp.leaves)
+        for (int e = 0; e < 4; ++e) {
+          const auto [I, J] = alongEdge(c, e, 0, 0);
+          plan.corners.insert(positionKey(cellPoint(scene.primitives[p], rp, c, 0, I, J)));
+        }
+    }
+    for (size_t p = 0; p < plan.primitives.size(); ++p) {
+      const RefinedPrimitive& rp = plan.primitives[p];
+      if (!rp.refinable) continue;
+      for (const Cell& c : rp.leaves) {
+        if (c.level >= kMaxRefineLevel) continue;
+        bool unbalanced = false;
+        for (int e = 0; e < 4 && !unbalanced; ++e) {
+          if (collapsedEdge(rp, c, e)) continue;
+          for (long k : {1L, 3L}) {
+            const auto [I, J] = alongEdge(c, e, 2, k);
+            unbalanced |= plan.corners.count(positionKey(cellPoint(scene.primitives[p], rp, c, 2, I, J))) > 0;
+          }
+        }
+        if (unbalanced) changed |= split.insert(c).second;
+      }
+    }
+  }
+  for (size_t p = 0; p < plan.primitives.size(); ++p) {
+    RefinedPrimitive& rp = plan.primitives[p];
+    for (const Cell& c : rp.leaves) {
+      rp.cells |= c.level > 0;
+      for (int e = 0; e < 4 && !rp.cells; ++e) {
+        if (collapsedEdge(rp, c, e)) continue;
+        const auto [I, J] = alongEdge(c, e, 1, 1);
+        rp.cells |= plan.corners.count(positionKey(cellPoint(scene.primitives[p], rp, c, 1, I, J))) > 0;
+      }
+    }
+  }
+  return plan;
+}
+
+// A primitive by its leaf cells: each a patch, or where a neighbour's point sits at the midpoint of
+// one of its edges, a fan of triangles around its centre through that point (no hanging vertex:
+// the field stays continuous and the written mesh has no T-junction).
+void tessellateCells(const Scene& scene, int primIndex, const RefinedPrimitive& rp, const PositionSet& corners, Welder& welder,
+                     PatchMesh& mesh) {
+  const Primitive& prim = scene.primitives[primIndex];
+  PrimitivePatches& out = mesh.primitives[primIndex];
+  out.keepsSourceVertices = false;
+  std::map<std::pair<PointId, uint32_t>, uint32_t> outputIndex;
+  struct Made {
+    uint32_t vertex, output;
+    SurfacePoint source;
+  };
+  auto make = [&](const Cell& c, int extra, long I, long J) {
+    const Face& f = rp.faces[c.face];
+    const GridPoint g = gridPoint(prim, f, uint32_t(c.face), rp.n, c.level + extra, I, J);
+    const uint32_t pv = welder.vertex(g.position, faceNormalAt(prim, f, g.w), prim.material);
+    const SurfacePoint source = locate(prim, f, g.position);
+    auto [it, inserted] = outputIndex.try_emplace({g.id, pv}, uint32_t(out.patchVertex.size()));
+    if (inserted) {
+      out.patchVertex.push_back(pv);
+      out.source.push_back(source);
+    }
+    return Made{pv, it->second, source};
+  };
+  auto addPatch = [&](const Cell& c, const std::array<Made, 4>& m) {
+    Patch patch = makePatch({m[0].vertex, m[1].vertex, m[2].vertex, m[3].vertex}, prim.material, primIndex,
+                            rp.faces[c.face].normal, 0);
+    patch.area = quadArea({mesh.positions[m[0].vertex], mesh.positions[m[1].vertex], mesh.positions[m[2].vertex],
+                           mesh.positions[m[3].vertex]});
+    patch.cell = c;
+    shade(scene, prim, mesh, patch, [&](int k, int set) { return uvAt(prim, set, m[k].source); });
+    mesh.patches.push_back(patch);
+    out.triangles.push_back({m[0].output, m[1].output, m[2].output});
+    if (m[3].vertex != m[2].vertex) out.triangles.push_back({m[0].output, m[2].output, m[3].output});
+  };
+  for (const Cell& c : rp.leaves) {
+    std::array<Made, 4> corner;
+    std::array<bool, 4> hanging{};
+    for (int e = 0; e < 4; ++e) {
+      const auto [I, J] = alongEdge(c, e, 0, 0);
+      corner[e] = make(c, 0, I, J);
+    }
+    bool any = false;
+    for (int e = 0; e < 4; ++e) {
+      if (collapsedEdge(rp, c, e)) continue;
+      const auto [I, J] = alongEdge(c, e, 1, 1);
+      hanging[e] = corners.count(positionKey(cellPoint(prim, rp, c, 1, I, J))) > 0;
+      any |= hanging[e];
+    }
+    if (!any) {
+      addPatch(c, corner);
+      continue;
+    }
+    // The fan: the centre, then the boundary counter-clockwise with the midpoints that hang on it.
+    const Made centre = make(c, 1, 2 * c.i + 1, 2 * c.j + 1);
+    std::vector<Made> ring;
+    for (int e = 0; e < 4; ++e) {
+      if (ring.empty() || ring.back().vertex != corner[e].vertex) ring.push_back(corner[e]);
+      if (hanging[e]) {
+        const auto [I, J] = alongEdge(c, e, 1, 1);
+        ring.push_back(make(c, 1, I, J));
+      }
+    }
+    if (ring.size() > 1 && ring.back().vertex == ring.front().vertex) ring.pop_back();
+    for (size_t k = 0; k < ring.size(); ++k) {
+      const Made& b = ring[(k + 1) % ring.size()];
+      addPatch(c, {centre, ring[k], b, b});
+    }
+  }
+}
+
 // A double-sided material lights both sides: every patch gets a mirrored twin on its own vertices
 // (normals reversed, so they never weld with the front). Each side is a surface of its own: the
 // solver keeps a side from seeing or shadowing its twin (Patch::twin). The exporter writes the
@@ -712,6 +953,8 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   PatchMesh mesh;
   mesh.primitives.resize(scene.primitives.size());
   Welder welder{mesh, {}};
+  mesh.split = options.split;
+  const RefinementPlan plan = planRefinement(scene, options, mesh.split);
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
     const size_t first = mesh.patches.size();
     const double rate = subdivisionFor(scene.primitives[p], options);
@@ -722,6 +965,8 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
                                          : options.subdivisionSurfaces;
     if (scheme != SubdivisionScheme::kNone && !scene.primitives[p].triangles.empty())
       tessellateSubdivided(scene, int(p), scheme, options, welder, mesh);
+    else if (plan.primitives[p].cells)
+      tessellateCells(scene, int(p), plan.primitives[p], plan.corners, welder, mesh);
     else
       tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, welder, mesh);
     if (scene.materials[scene.primitives[p].material].doubleSided) addBackSides(mesh, welder, first);

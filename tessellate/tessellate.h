@@ -9,12 +9,22 @@
 
 #include <array>
 #include <cstdint>
+#include <set>
 #include <vector>
 
 #include "core/core.h"
 #include "importers/importers.h"
 
 namespace radbake {
+
+// Where a flat patch lies in the refinement of its source face: a face split n×n has n·2^level
+// cells a side at `level`, and cell (level, i, j) covers its parameters [i, i + 1] × [j, j + 1]
+// over n·2^level. primitive −1: a patch adaptive refinement cannot split (curved surfaces,
+// generated geometry).
+struct Cell {
+  int primitive = -1, face = 0, level = 0, i = 0, j = 0;
+  auto operator<=>(const Cell&) const = default;
+};
 
 struct Patch {
   std::array<uint32_t, 4> v;  // counter-clockwise seen from the front; v[2] == v[3] for a triangle
@@ -31,6 +41,7 @@ struct Patch {
   // where a ray hits (empty mask: the patch is opaque).
   int mask = -1;              // index into PatchMesh::masks
   double coverage = 1;        // the opaque fraction of a cut-out patch
+  Cell cell;                  // its cell (the fan triangles of a cell with hanging points share it)
 };
 
 inline Patch makePatch(const std::array<uint32_t, 4>& v, int material, int primitive, const Vec3& normal, double area) {
@@ -97,6 +108,7 @@ struct PatchMesh {
   int curvedRate = 0;             // quads per patch edge on curved surfaces
   double worstNonPlanarity = 0;   // curved surfaces: largest corner distance from a facet's plane over its diagonal
   size_t splitFacets = 0;         // non-planar facets split into two planar triangle patches
+  std::set<Cell> split;           // the cells split in four: TessellateOptions::split and what balance added
 };
 
 struct TessellateOptions {
@@ -113,7 +125,15 @@ struct TessellateOptions {
   // The memory budget (--max-memory): a subdivision whose patches would need more (estimated
   // before they are made) is refused with exit 3 naming the mesh.
   uint64_t maxMemoryBytes = UINT64_MAX;
+  // Adaptive refinement: cells of flat faces to split in four (recursively: a child may be listed
+  // too). The mesh stays conforming: a cell is split too where a neighbour is more than one level
+  // finer, and a cell with a finer neighbour becomes a fan of triangles around its centre, so no
+  // vertex hangs on an edge. Ignored with flatPatches.
+  std::set<Cell> split;
 };
+
+// The deepest refinement level (a cell 1/1024 of its face's grid cell).
+inline constexpr int kMaxRefineLevel = 10;
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options = {});
 

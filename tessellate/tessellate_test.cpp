@@ -113,4 +113,78 @@ TEST(Tessellate, CurvedRateFollowsTheChordTolerance) {
   EXPECT_LT(tessellate(scene, coarse).curvedRate, tessellate(scene, fine).curvedRate);
 }
 
+// No vertex of the mesh lies inside a patch edge (a T-junction): brute force over every edge.
+int tJunctions(const PatchMesh& mesh) {
+  int found = 0;
+  for (const Patch& p : mesh.patches)
+    for (int e = 0; e < 4; ++e) {
+      const Vec3 a = mesh.positions[p.v[e]], b = mesh.positions[p.v[(e + 1) % 4]];
+      const double len = length(b - a);
+      if (len == 0) continue;
+      for (const Vec3& x : mesh.positions) {
+        const double t = dot(x - a, b - a) / (len * len);
+        if (t > 1e-9 && t < 1 - 1e-9 && length(a + (b - a) * t - x) < 1e-9 * len) ++found;
+      }
+    }
+  return found;
+}
+
+TEST(Tessellate, RefinedCellsStayConformingAcrossFacesAndKeepTheArea) {
+  // One primitive per face: primitive 0 split three levels deep at the inner corner of its first
+  // quarter (cell (2, 1, 1) touches both level-1 cells beside the quarter).
+  const Scene scene = importScene((kScenes / "furnace_cube.gltf").string());
+  ASSERT_EQ(scene.primitives.size(), 6u);
+  TessellateOptions o;
+  o.split = {{0, 0, 0, 0, 0}, {0, 0, 1, 0, 0}, {0, 0, 2, 1, 1}};
+  const PatchMesh mesh = tessellate(scene, o);
+  EXPECT_NEAR(patchMeshArea(mesh), 6.0, 1e-12);
+  EXPECT_EQ(tJunctions(mesh), 0);
+  // 2:1 balance: the face's level-1 cells beside the quarter were split too; so were the other
+  // faces' cells along the first quarter's edges (their points at 1/8 and 1/4).
+  EXPECT_TRUE(mesh.split.count({0, 0, 1, 1, 0}) && mesh.split.count({0, 0, 1, 0, 1}));
+  int otherFaces = 0;
+  for (const Cell& c : mesh.split) otherFaces += c.primitive != 0;
+  EXPECT_GE(otherFaces, 2);
+  // Every patch names its leaf cell, and the output triangles sit on the source surface.
+  for (const Patch& p : mesh.patches) {
+    EXPECT_EQ(p.cell.primitive, p.primitive);
+    EXPECT_FALSE(mesh.split.count(p.cell));
+  }
+  const PrimitivePatches& out = mesh.primitives[0];
+  EXPECT_FALSE(out.keepsSourceVertices);
+  double outputArea = 0;
+  for (const auto& t : out.triangles) {
+    std::array<Vec3, 3> x;
+    for (int k = 0; k < 3; ++k) {
+      x[k] = positionAt(scene.primitives[0], out.source[t[k]]);
+      EXPECT_LT(length(x[k] - mesh.positions[out.patchVertex[t[k]]]), 1e-12);
+    }
+    outputArea += 0.5 * length(cross(x[1] - x[0], x[2] - x[0]));
+  }
+  EXPECT_NEAR(outputArea, 1.0, 1e-12);  // the face's
+}
+
+TEST(Tessellate, ACellBesideAFinerOneIsAFanWithoutHangingVertices) {
+  // A face (primitive 0) split once, then one child again: the two children beside it have one
+  // midpoint each on an edge and become fans of 5 triangles; the diagonal child stays one patch.
+  const Scene scene = importScene((kScenes / "furnace_cube.gltf").string());
+  TessellateOptions o;
+  o.split = {{0, 0, 0, 0, 0}, {0, 0, 1, 0, 0}};
+  const PatchMesh mesh = tessellate(scene, o);
+  int face0 = 0, triangles = 0;
+  for (const Patch& p : mesh.patches)
+    if (p.primitive == 0) {
+      ++face0;
+      triangles += p.v[2] == p.v[3];
+    }
+  EXPECT_EQ(face0, 4 + 5 + 5 + 1);
+  EXPECT_EQ(triangles, 10);
+  EXPECT_EQ(tJunctions(mesh), 0);
+  EXPECT_NEAR(patchMeshArea(mesh), 6.0, 1e-12);
+  // Without the split, the unrefined path: the same mesh as before refinement existed.
+  const PatchMesh plain = tessellate(scene);
+  EXPECT_EQ(plain.patches.size(), 6u);
+  EXPECT_TRUE(plain.split.empty());
+}
+
 }  // namespace

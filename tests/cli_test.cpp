@@ -431,6 +431,35 @@ TEST(Bake, SubdivisionWritesNewGeometryThatValidates) {
   EXPECT_EQ(runValidator({out}, &log), 0) << log;
 }
 
+// --refine writes a refined mesh (fans beside finer cells: no T-junction) that validates, reports
+// what it did, and its options' mistakes are usage errors.
+TEST(Bake, RefinedBakeValidatesAndReports) {
+  const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
+  const fs::path out = tempDir() / "refined.glb", report = tempDir() / "refined.json";
+  const RunResult r = radbake({"bake", in, "-o", out.string(), "--refine", "0.05", "--max-patches", "1500", "-q", "--report",
+                               report.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const json j = json::parse(std::ifstream(report));
+  const json refinement = j["refinement"];
+  EXPECT_GT(refinement["rounds"].get<int>(), 2) << refinement;
+  EXPECT_EQ(refinement["maxPatches"].get<int>(), 1500);
+  EXPECT_GT(j["counts"]["patches"].get<int>(), 24 * 16) << j["counts"];
+  EXPECT_LT(j["counts"]["patches"].get<int>(), 1500 * 2) << j["counts"];
+  if (validatorAvailable()) {
+    std::string log;
+    EXPECT_EQ(runValidator({out}, &log), 0) << log;
+  }
+  const RunResult constant = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--refine", "0.05", "--method", "constant"});
+  EXPECT_EQ(constant.code, 1);
+  EXPECT_EQ(constant.err, "error: radbake: --refine works with the bilinear method only (constant patches are shown flat)\n");
+  const RunResult budget = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--max-patches", "100"});
+  EXPECT_EQ(budget.code, 1);
+  EXPECT_EQ(budget.err, "error: radbake: --max-patches is the budget of --refine; give --refine too\n");
+  const RunResult zero = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--refine", "0"});
+  EXPECT_EQ(zero.code, 1);
+  EXPECT_FALSE(fs::exists(tempDir() / "c.glb"));
+}
+
 // Broken on purpose: exit 2, one line naming the file and the element, nothing written.
 struct Broken {
   const char* file;

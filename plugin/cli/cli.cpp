@@ -248,6 +248,10 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   ExportOptions exportOptions;
   exportOptions.display = {options.ocioConfig, options.display, options.view, options.exposure};
   exportOptions.lightmap = {options.lightmap, options.lightmapSize, options.texelSize};
+  if (options.refine && options.method == "constant")
+    throw Error(ExitCode::kUsage, "radbake: --refine works with the bilinear method only (constant patches are shown flat)");
+  if (options.maxPatches > 0 && !options.refine)
+    throw Error(ExitCode::kUsage, "radbake: --max-patches is the budget of --refine; give --refine too");
   if (!options.lightmap.empty() && lowerExtension(options.lightmap) != ".exr")
     throw Error(ExitCode::kUsage, "radbake: --lightmap " + options.lightmap + " must end in .exr");
   if (exportOptions.display.config.empty())
@@ -281,7 +285,15 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (options.subdivisionSurfaces == "loop") tessellateOptions.subdivisionSurfaces = SubdivisionScheme::kLoop;
   tessellateOptions.flatPatches = options.method == "constant";
   tessellateOptions.maxMemoryBytes = maxMemory;
-  const PatchMesh mesh = tessellate(scene, tessellateOptions);
+  PatchMesh mesh = tessellate(scene, tessellateOptions);
+  Refinement refined;
+  if (options.refine) {
+    progress.stage("refine");
+    refined = refineMesh(scene, tessellateOptions, mesh, *options.refine, options.maxPatches);
+    if (refined.budgetReached)
+      scene.warnings.push_back(std::filesystem::path(options.input).filename().string() + ": --refine stopped at the patch budget (" +
+                               std::to_string(mesh.patches.size()) + " patches) with patches still above its target: raise --max-patches");
+  }
   const auto t2 = Clock::now();
   progress.stage("solve");
   RadiosityOptions radiosityOptions;
@@ -347,6 +359,10 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
     nlohmann::json report{
         {"input", options.input}, {"output", options.output}, {"method", options.method},
         {"subdivide", options.subdivide}, {"maxEdge", options.maxEdge}, {"maxChord", options.maxChord},
+        {"refinement", options.refine ? nlohmann::json{{"target", *options.refine}, {"maxPatches", refined.maxPatches},
+                                                       {"rounds", refined.rounds}, {"splitCells", refined.splitCells},
+                                                       {"worstError", refined.worst}, {"budgetReached", refined.budgetReached}}
+                                      : nlohmann::json(nullptr)},
         {"counts", {{"primitiveInstances", scene.primitives.size()}, {"patches", mesh.patches.size()},
                     {"vertices", mesh.positions.size()}, {"writtenVertices", summary.writtenVertices},
                     {"clonedMeshes", summary.clonedMeshes}, {"curvedRate", mesh.curvedRate},
@@ -427,6 +443,13 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
       ->check(CLI::Range(1, 4096));
   bakeCmd->add_option("--max-edge", o.maxEdge, "refine until no patch edge is longer than LENGTH (scene units)")
       ->check(finiteIn(1e-30, 1e30, "a positive length"));
+  bakeCmd->add_option("--refine", o.refine,
+                      "adaptive refinement: split patches, worst first, until the bilinear field misses the direct "
+                      "light by at most E of its mean (0.02 is a good start; bilinear method; docs/radiosity.md)")
+      ->check(finiteIn(1e-6, 1, "a relative error from 1e-6 to 1"));
+  bakeCmd->add_option("--max-patches", o.maxPatches,
+                      "--refine: stop splitting at about this many patches (default: 4× the starting patches, at least 20000)")
+      ->check(CLI::Range(size_t(1), size_t(1) << 24));
   bakeCmd->add_option("--max-chord", o.maxChord, "curved surfaces: largest distance between a patch and the surface")
       ->check(finiteIn(1e-30, 1e30, "a positive length"));
   bakeCmd->add_option("--subdivision-surfaces", o.subdivisionSurfaces,

@@ -21,6 +21,8 @@ struct Options {
   int subdivide = 1;
   double maxEdge = 0;
   double maxChord = 0;
+  std::optional<double> refine;     // --refine E: adaptive refinement to this relative error of the direct light
+  size_t maxPatches = 0;            // --max-patches: the refinement's budget (0: the default)
   std::string subdivisionSurfaces;  // "", "catmull-clark" or "loop"
   int scene = -1;                   // --scene N
   std::string lightmap;
