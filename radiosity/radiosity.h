@@ -85,22 +85,18 @@ struct TransportMemoryExceeded : std::runtime_error {
 
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options = {});
 
-// Adaptive refinement's measure, per patch: how far the bilinear interpolation of the direct light
-// between points just inside its corners misses it at its centre and edge midpoints (the largest,
-// times the patch's reflectance, channels averaged), relative to the scene's area-weighted mean of
-// that light. Direct light: from emitting patches (exact factors, visibility as the transport
-// judges it) and punctual lights, shadowed; the sky is not counted.
-std::vector<double> directLightError(const Scene& scene, const PatchMesh& mesh);
-
-// Adaptive refinement: each round measures every patch (directLightError) and splits the cells of
-// those above `target`, worst first, while the budget lasts (`maxPatches`; 0: 4× the starting
-// patches, at least 20,000); tessellate balances and closes the splits. `mesh` is replaced by the
-// refined one and `options.split` holds its cells.
+// Adaptive refinement: each round measures the patches it has not seen (how far the bilinear
+// interpolation of the direct light from emitting patches and punctual lights, not the sky, misses
+// it at a patch's centre and edge midpoints, times ρ, relative to the scene's area-weighted mean of
+// that light) and splits the cells of those above `target`, most squared error over area first,
+// while the budget lasts (`maxPatches`; 0: 4× the starting patches, at least 20,000); tessellate
+// balances and closes the splits. `mesh` is replaced by the refined one and `options.split` holds
+// its cells.
 struct Refinement {
   size_t maxPatches = 0;
   int rounds = 0;
   size_t splitCells = 0;     // cells chosen for their error (balance splits more)
-  double worst = 0;          // the largest error left (directLightError)
+  double worst = 0;          // the largest error left on cells that can still be split
   bool budgetReached = false;  // stopped with cells above the target
 };
 Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches);

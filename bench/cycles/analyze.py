@@ -2,7 +2,8 @@
 """Errors, tables and the plot for bench/cycles/run.sh (system python3: numpy, scipy, matplotlib).
 
 Usage: analyze.py OUTDIR PNG
-Reads OUTDIR/probes.npz, OUTDIR/meta.json, OUTDIR/radbake/N*.{csv,json,time}, OUTDIR/cycles/*.{npz,time};
+Reads OUTDIR/probes.npz, OUTDIR/meta.json, OUTDIR/radbake/N*.{csv,json,time} (uniform) and R*.{csv,json,time}
+(--refine at a budget of * patches), OUTDIR/cycles/*.{npz,time};
 writes OUTDIR/results.md (also printed) and OUTDIR/results.json, and the plot PNG.
 """
 import glob, json, os, re, sys
@@ -31,6 +32,18 @@ for f in glob.glob(f"{out}/radbake/N*.csv"):
     wall, cpu = tm(f"{out}/radbake/N{n}.time")
     rb[n] = dict(L=v[:, 3:], total=rep["timings"]["total"], solve=rep["timings"]["solve"], wall=wall, cpu=cpu,
                  unknowns=rep["counts"]["vertices"], patches=rep["counts"]["patches"])
+
+# radbake --refine at --max-patches B: R<B>.*
+rf = {}
+for f in glob.glob(f"{out}/radbake/R*.csv"):
+    tag = re.search(r"R(\d+)\.csv", f).group(1)
+    v = np.loadtxt(f, delimiter=",", skiprows=1)
+    assert np.abs(v[:, :3] - P).max() < 1e-6
+    rep = json.load(open(f"{out}/radbake/R{tag}.json"))
+    wall, cpu = tm(f"{out}/radbake/R{tag}.time")
+    rf[int(tag)] = dict(L=v[:, 3:], total=rep["timings"]["total"], refine=rep["timings"]["tessellate"], wall=wall,
+                          cpu=cpu, unknowns=rep["counts"]["vertices"], patches=rep["counts"]["patches"],
+                          budget=rep["refinement"]["budgetReached"], target=rep["refinement"]["target"])
 
 # --- Cycles: match the bake's vertices to the probes (position, then normal) -----------------
 def cycles_at_probes(path):
@@ -167,6 +180,12 @@ for n in sorted(rb):
     res["radbake"].append(dict(N=n, err=e, err_unweighted=eu, err_nostrip=es, total=R["total"], wall=R["wall"],
                                cpu=R["cpu"], unknowns=R["unknowns"]))
     pl(f"| radbake | N = {n} ({R['unknowns']} unknowns) | {e:.2%} | ({eu:.2%}) | ({ec:.2%}) | {es:.2%} | {R['total']:.2f} (report total) | – | {R['wall']:.2f} | {R['cpu']:.2f} |")
+res["refine"] = []
+for t in sorted(rf):
+    R = rf[t]; e = rms(R["L"]); eu = rms_unw(R["L"]); es = rms(R["L"], m=~strip); ec = rms(R["L"], per_channel=True)
+    res["refine"].append(dict(target=R["target"], budget=t, err=e, err_unweighted=eu, err_nostrip=es, total=R["total"], wall=R["wall"],
+                              cpu=R["cpu"], unknowns=R["unknowns"], patches=R["patches"], refine=R["refine"]))
+    pl(f"| radbake | --refine {R['target']:g} --max-patches {t} ({R['patches']} patches{', budget reached' if R['budget'] else ''}; refining {R['refine']:.1f} s) | {e:.2%} | ({eu:.2%}) | ({ec:.2%}) | {es:.2%} | {R['total']:.2f} (report total) | – | {R['wall']:.2f} | {R['cpu']:.2f} |")
 for s in sorted(cy):
     C = cy[s]; e = rms(C["L"]); eu = rms_unw(C["L"]); es = rms(C["L"], m=~strip); ec = rms(C["L"], per_channel=True)
     res["cycles"].append(dict(samples=s, err=e, err_unweighted=eu, err_nostrip=es, bake_wall=C["bake_wall"],
@@ -193,6 +212,11 @@ def reach(ts, es, target):
     if k < -0.05:
         return ("~", float(np.exp((np.log(target) - c) / k)), k)
     return None
+def ratio(tc, tr):
+    if not (tc and tr): return "–"
+    r = f"{tc[1] / tr[1]:.2g}×"
+    if tc[0] or tr[0]: r = "≈ " + r + " (extrapolated)" * ("~" in (tc[0], tr[0]))
+    return r
 def fmt(x):
     if x is None: return "not reached"
     if x[0] == "~": return f"not reached; extrapolated ≈ {x[1]:.0f} s (err ∝ t^{x[2]:.2f})"
@@ -203,37 +227,36 @@ for label, key, cols in [("core time (Cycles: the bake call; radbake: the report
                          ("whole command (wall)", "wall", None), ("whole command (CPU, user+sys)", "cpu", None)]:
     pl(f"**{label}**")
     pl()
-    pl("| target | Cycles | radbake | Cycles / radbake |")
-    pl("|---|---|---|---|")
+    pl("| target | Cycles | radbake | Cycles / radbake | radbake --refine | Cycles / radbake --refine |")
+    pl("|---|---|---|---|---|---|")
     for tgt in (0.02, 0.01, 0.005):
         tc = reach([c["bake_wall" if key == "core" else key] for c in res["cycles"]], [c["err"] for c in res["cycles"]], tgt)
         tr = reach([c["total" if key == "core" else key] for c in res["radbake"]], [c["err"] for c in res["radbake"]], tgt)
-        ratio = f"{tc[1] / tr[1]:.2g}×" if tc and tr else "–"
-        if tc and tr and (tc[0] or tr[0]): ratio = "≈ " + ratio + " (extrapolated)" * ("~" in (tc[0], tr[0]))
-        pl(f"| {tgt:.1%} | {fmt(tc)} | {fmt(tr)} | {ratio} |")
-        res.setdefault("reach", []).append(dict(kind=key, target=tgt, cycles=tc and tc[1], radbake=tr and tr[1]))
+        tf = reach([c["total" if key == "core" else key] for c in res["refine"]], [c["err"] for c in res["refine"]], tgt) if len(res["refine"]) > 1 else None
+        pl(f"| {tgt:.1%} | {fmt(tc)} | {fmt(tr)} | {ratio(tc, tr)} | {fmt(tf)} | {ratio(tc, tf)} |")
+        res.setdefault("reach", []).append(dict(kind=key, target=tgt, cycles=tc and tc[1], radbake=tr and tr[1], refine=tf and tf[1]))
     pl()
 SMOOTH = np.isin(region, ["back_wall", "green_wall", "red_wall", "ceiling"])
 for lab, msk, key in [(f"Same, away from the block–floor contact ({strip.sum()} points within {CONTACT * 100:.0f} cm of it left out; core time):", ~strip, "err_nostrip"),
                       (f"Same, walls and ceiling only ({SMOOTH.sum()} points: no shadow boundaries or contact lines; core time):", SMOOTH, "err_smooth")]:
     for x in res["radbake"]: x[key] = rms(rb[x["N"]]["L"], m=msk)
+    for x in res["refine"]: x[key] = rms(rf[x["budget"]]["L"], m=msk)
     for x in res["cycles"]: x[key] = rms(cy[x["samples"]]["L"], m=msk)
     pl(lab)
     pl()
-    pl("| target | Cycles | radbake | Cycles / radbake |")
-    pl("|---|---|---|---|")
+    pl("| target | Cycles | radbake | Cycles / radbake | radbake --refine | Cycles / radbake --refine |")
+    pl("|---|---|---|---|---|---|")
     for tgt in (0.02, 0.01, 0.005):
         tc = reach([c["bake_wall"] for c in res["cycles"]], [c[key] for c in res["cycles"]], tgt)
         tr = reach([c["total"] for c in res["radbake"]], [c[key] for c in res["radbake"]], tgt)
-        ratio = f"{tc[1] / tr[1]:.2g}×" if tc and tr else "–"
-        if tc and tr and (tc[0] or tr[0]): ratio = "≈ " + ratio + " (extrapolated)" * ("~" in (tc[0], tr[0]))
-        pl(f"| {tgt:.1%} | {fmt(tc)} | {fmt(tr)} | {ratio} |")
-        res.setdefault("reach", []).append(dict(kind=key, target=tgt, cycles=tc and tc[1], radbake=tr and tr[1]))
+        tf = reach([c["total"] for c in res["refine"]], [c[key] for c in res["refine"]], tgt) if len(res["refine"]) > 1 else None
+        pl(f"| {tgt:.1%} | {fmt(tc)} | {fmt(tr)} | {ratio(tc, tr)} | {fmt(tf)} | {ratio(tc, tf)} |")
+        res.setdefault("reach", []).append(dict(kind=key, target=tgt, cycles=tc and tc[1], radbake=tr and tr[1], refine=tf and tf[1]))
     pl()
-pl("| errors of these subsets | " + " | ".join(f"N={x['N']}" for x in res["radbake"]) + " | " + " | ".join(f"{x['samples']} spp" for x in res["cycles"]) + " |")
-pl("|---" * (1 + len(res["radbake"]) + len(res["cycles"])) + "|")
+pl("| errors of these subsets | " + " | ".join(f"N={x['N']}" for x in res["radbake"]) + " | " + " | ".join(f"refine {x['budget']}" for x in res["refine"]) + " | " + " | ".join(f"{x['samples']} spp" for x in res["cycles"]) + " |")
+pl("|---" * (1 + len(res["radbake"]) + len(res["refine"]) + len(res["cycles"])) + "|")
 for key, lab in [("err_nostrip", "away from contact"), ("err_smooth", "walls + ceiling")]:
-    pl(f"| {lab} | " + " | ".join(f"{x[key]:.2%}" for x in res["radbake"] + res["cycles"]) + " |")
+    pl(f"| {lab} | " + " | ".join(f"{x[key]:.2%}" for x in res["radbake"] + res["refine"] + res["cycles"]) + " |")
 pl()
 
 # per-region errors
@@ -241,9 +264,10 @@ pl("## Error by region (area-weighted RMS, relative to brightness)")
 pl()
 nmax = max(x["N"] for x in res["radbake"]); smax = max(cy)
 nmid = 8 if 8 in rb else nmax; smid = 256 if 256 in cy else smax
-cols = [("radbake", nmid), ("radbake", nmax), ("Cycles", smid), ("Cycles", smax)]
-get = lambda k, v: rb[v]["L"] if k == "radbake" else cy[v]["L"]
-pl("| region | points | of them radbake-referenced | " + " | ".join(f"{k} {'N = ' if k == 'radbake' else ''}{v}{'' if k == 'radbake' else ' spp'}" for k, v in cols) + " |")
+cols = [("radbake", nmid), ("radbake", nmax)] + [("refine", t) for t in sorted(rf)] + [("Cycles", smid), ("Cycles", smax)]
+get = lambda k, v: rb[v]["L"] if k == "radbake" else rf[v]["L"] if k == "refine" else cy[v]["L"]
+head = lambda k, v: f"radbake N = {v}" if k == "radbake" else f"radbake --refine, {v} patches budget" if k == "refine" else f"Cycles {v} spp"
+pl("| region | points | of them radbake-referenced | " + " | ".join(head(k, v) for k, v in cols) + " |")
 pl("|---" * (len(cols) + 3) + "|")
 for rg in list(np.unique(region)) + ["all"]:
     m = region == rg if rg != "all" else np.ones(len(P), bool)
@@ -259,6 +283,9 @@ if fl.any():
        f"average (worst {dd.min():+.0%}): the floor is one input quad, its N × N patches straddle the blocks' "
        f"footprints, and the bilinear interpolant of a node inside a footprint (radiance 0) darkens the floor up to "
        f"one patch width around the blocks.")
+    for t in sorted(rf):
+        dd = ((rf[t]["L"] - ref) / ref.mean(1, keepdims=True))[fl].mean(1)
+        pl(f"With `--refine {rf[t]['target']:g} --max-patches {t}` ({rf[t]['patches']} patches): {dd.mean():+.1%} on average there (worst {dd.min():+.0%}).")
     pl()
 
 md = "\n".join(lines)
@@ -274,6 +301,10 @@ rbr, cyr = res["radbake"], res["cycles"]
 ax.loglog([x["total"] for x in rbr], [x["err"] for x in rbr], "o-", color="C0", label="radbake (report total)")
 ax.loglog([x["wall"] for x in rbr], [x["err"] for x in rbr], "o--", color="C0", alpha=0.45, mfc="none", label="radbake (whole command)")
 for x in rbr: ax.annotate(f"N={x['N']}", (x["total"], x["err"]), textcoords="offset points", xytext=(5, 4), fontsize=8, color="C0")
+rfr = res["refine"]
+if rfr:
+    ax.loglog([x["total"] for x in rfr], [x["err"] for x in rfr], "P-", color="C4", label="radbake --refine (report total)")
+    for x in rfr: ax.annotate(f"{x['patches']} p", (x["total"], x["err"]), textcoords="offset points", xytext=(5, -10), fontsize=8, color="C4")
 ax.loglog([x["bake_wall"] for x in cyr], [x["err"] for x in cyr], "s-", color="C3", label="Cycles (bake call)")
 ax.loglog([x["wall"] for x in cyr], [x["err"] for x in cyr], "s--", color="C3", alpha=0.45, mfc="none", label="Cycles (whole command)")
 for x in cyr: ax.annotate(f"{x['samples']} spp", (x["bake_wall"], x["err"]), textcoords="offset points", xytext=(5, 4), fontsize=8, color="C3")
