@@ -2032,7 +2032,7 @@ PatchKey patchKey(const PatchMesh& mesh, const Patch& patch) {
 Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches) {
   Refinement summary;
   summary.maxPatches = maxPatches > 0 ? maxPatches : std::max<size_t>(20000, 4 * mesh.patches.size());
-  constexpr int kMaxRounds = 2 * kMaxRefineLevel;
+  constexpr int kMaxRounds = 4 * kMaxRefineLevel;
   std::unordered_map<PatchKey, PatchLight, PatchKeyHash> known;
   size_t emitters = 0;
   for (int round = 0;; ++round) {
@@ -2074,10 +2074,20 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
       summary.budgetReached = true;
       break;
     }
+    // The worst cells that hold half of the error mass above the target: a hot spot (a lamp 2 cm
+    // under a ceiling, 70 times the mean) then goes down a level every round, instead of waiting
+    // while each round spends a quarter of the budget on everything above the target (a Blender
+    // room spent its whole budget in 4 rounds and its ceiling kept 3-m cells over the hot spot).
     std::vector<std::pair<double, Cell>> worstFirst;
-    for (const auto& [cell, e] : above) worstFirst.push_back({e, cell});
+    double mass = 0;
+    for (const auto& [cell, e] : above) {
+      worstFirst.push_back({e, cell});
+      mass += e;
+    }
     std::stable_sort(worstFirst.begin(), worstFirst.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-    worstFirst.resize(std::min(worstFirst.size(), room));
+    size_t take = 0;
+    for (double taken = 0; take < worstFirst.size() && take < room && taken < mass / 2; ++take) taken += worstFirst[take].first;
+    worstFirst.resize(take);
     for (const auto& [e, cell] : worstFirst) options.split.insert(cell);
     summary.splitCells += worstFirst.size();
     ++summary.rounds;

@@ -856,8 +856,8 @@ RefinementPlan planRefinement(const Scene& scene, const TessellateOptions& optio
 }
 
 // A primitive by its leaf cells: each a patch, or where a neighbour's point sits at the midpoint of
-// one of its edges, a fan of triangles around its centre through that point (no hanging vertex:
-// the field stays continuous and the written mesh has no T-junction).
+// one of its edges, a fan of triangles through that point (no hanging vertex: the field stays
+// continuous and the written mesh has no T-junction).
 void tessellateCells(const Scene& scene, int primIndex, const RefinedPrimitive& rp, const PositionSet& corners, Welder& welder,
                      PatchMesh& mesh) {
   const Primitive& prim = scene.primitives[primIndex];
@@ -909,21 +909,24 @@ void tessellateCells(const Scene& scene, int primIndex, const RefinedPrimitive& 
       addPatch(c, corner);
       continue;
     }
-    // The fan: the centre, then the boundary counter-clockwise with the midpoints that hang on it.
-    const Made centre = make(c, 1, 2 * c.i + 1, 2 * c.j + 1);
+    // The fan: the boundary counter-clockwise from the first midpoint that hangs on it, with the
+    // others, fanned from that midpoint (k − 2 triangles for k boundary points, no new vertex: a
+    // fan round the cell's centre made two more triangles and one more unknown per cell). No
+    // triangle is flat: the two segments through the apex are its first and last edges, and 2:1
+    // balance leaves at most one midpoint on an edge.
     std::vector<Made> ring;
+    int first = -1;
     for (int e = 0; e < 4; ++e) {
       if (ring.empty() || ring.back().vertex != corner[e].vertex) ring.push_back(corner[e]);
       if (hanging[e]) {
         const auto [I, J] = alongEdge(c, e, 1, 1);
+        if (first < 0) first = int(ring.size());
         ring.push_back(make(c, 1, I, J));
       }
     }
     if (ring.size() > 1 && ring.back().vertex == ring.front().vertex) ring.pop_back();
-    for (size_t k = 0; k < ring.size(); ++k) {
-      const Made& b = ring[(k + 1) % ring.size()];
-      addPatch(c, {centre, ring[k], b, b});
-    }
+    std::rotate(ring.begin(), ring.begin() + first, ring.end());
+    for (size_t k = 1; k + 1 < ring.size(); ++k) addPatch(c, {ring[0], ring[k], ring[k + 1], ring[k + 1]});
   }
 }
 

@@ -127,8 +127,8 @@ struct TessellateOptions {
   uint64_t maxMemoryBytes = UINT64_MAX;
   // Adaptive refinement: cells of flat faces to split in four (recursively: a child may be listed
   // too). The mesh stays conforming: a cell is split too where a neighbour is more than one level
-  // finer, and a cell with a finer neighbour becomes a fan of triangles around its centre, so no
-  // vertex hangs on an edge. Ignored with flatPatches.
+  // finer, and a cell with a finer neighbour becomes a fan of triangles from the point on its
+  // edge, so no vertex hangs on an edge. Ignored with flatPatches.
   std::set<Cell> split;
 };
 

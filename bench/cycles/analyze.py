@@ -3,7 +3,7 @@
 
 Usage: analyze.py OUTDIR PNG
 Reads OUTDIR/probes.npz, OUTDIR/meta.json, OUTDIR/radbake/N*.{csv,json,time} (uniform) and R*.{csv,json,time}
-(--refine at a budget of * patches), OUTDIR/cycles/*.{npz,time};
+(R<N>_<B>: --subdivide N --refine at a budget of B patches), OUTDIR/cycles/*.{npz,time};
 writes OUTDIR/results.md (also printed) and OUTDIR/results.json, and the plot PNG.
 """
 import glob, json, os, re, sys
@@ -33,15 +33,15 @@ for f in glob.glob(f"{out}/radbake/N*.csv"):
     rb[n] = dict(L=v[:, 3:], total=rep["timings"]["total"], solve=rep["timings"]["solve"], wall=wall, cpu=cpu,
                  unknowns=rep["counts"]["vertices"], patches=rep["counts"]["patches"])
 
-# radbake --refine at --max-patches B: R<B>.*
+# radbake --subdivide N --refine at --max-patches B: R<N>_<B>.*
 rf = {}
 for f in glob.glob(f"{out}/radbake/R*.csv"):
-    tag = re.search(r"R(\d+)\.csv", f).group(1)
+    tag = re.search(r"R(\d+_\d+)\.csv", f).group(1)
     v = np.loadtxt(f, delimiter=",", skiprows=1)
     assert np.abs(v[:, :3] - P).max() < 1e-6
     rep = json.load(open(f"{out}/radbake/R{tag}.json"))
     wall, cpu = tm(f"{out}/radbake/R{tag}.time")
-    rf[int(tag)] = dict(L=v[:, 3:], total=rep["timings"]["total"], refine=rep["timings"]["tessellate"], wall=wall,
+    rf[tuple(int(x) for x in tag.split("_"))] = dict(L=v[:, 3:], total=rep["timings"]["total"], refine=rep["timings"]["tessellate"], wall=wall,
                           cpu=cpu, unknowns=rep["counts"]["vertices"], patches=rep["counts"]["patches"],
                           budget=rep["refinement"]["budgetReached"], target=rep["refinement"]["target"])
 
@@ -183,9 +183,9 @@ for n in sorted(rb):
 res["refine"] = []
 for t in sorted(rf):
     R = rf[t]; e = rms(R["L"]); eu = rms_unw(R["L"]); es = rms(R["L"], m=~strip); ec = rms(R["L"], per_channel=True)
-    res["refine"].append(dict(target=R["target"], budget=t, err=e, err_unweighted=eu, err_nostrip=es, total=R["total"], wall=R["wall"],
+    res["refine"].append(dict(target=R["target"], N=t[0], budget=t[1], err=e, err_unweighted=eu, err_nostrip=es, total=R["total"], wall=R["wall"],
                               cpu=R["cpu"], unknowns=R["unknowns"], patches=R["patches"], refine=R["refine"]))
-    pl(f"| radbake | --refine {R['target']:g} --max-patches {t} ({R['patches']} patches{', budget reached' if R['budget'] else ''}; refining {R['refine']:.1f} s) | {e:.2%} | ({eu:.2%}) | ({ec:.2%}) | {es:.2%} | {R['total']:.2f} (report total) | – | {R['wall']:.2f} | {R['cpu']:.2f} |")
+    pl(f"| radbake | --subdivide {t[0]} --refine {R['target']:g} --max-patches {t[1]} ({R['patches']} patches{', budget reached' if R['budget'] else ''}; refining {R['refine']:.1f} s) | {e:.2%} | ({eu:.2%}) | ({ec:.2%}) | {es:.2%} | {R['total']:.2f} (report total) | – | {R['wall']:.2f} | {R['cpu']:.2f} |")
 for s in sorted(cy):
     C = cy[s]; e = rms(C["L"]); eu = rms_unw(C["L"]); es = rms(C["L"], m=~strip); ec = rms(C["L"], per_channel=True)
     res["cycles"].append(dict(samples=s, err=e, err_unweighted=eu, err_nostrip=es, bake_wall=C["bake_wall"],
@@ -240,7 +240,7 @@ SMOOTH = np.isin(region, ["back_wall", "green_wall", "red_wall", "ceiling"])
 for lab, msk, key in [(f"Same, away from the block–floor contact ({strip.sum()} points within {CONTACT * 100:.0f} cm of it left out; core time):", ~strip, "err_nostrip"),
                       (f"Same, walls and ceiling only ({SMOOTH.sum()} points: no shadow boundaries or contact lines; core time):", SMOOTH, "err_smooth")]:
     for x in res["radbake"]: x[key] = rms(rb[x["N"]]["L"], m=msk)
-    for x in res["refine"]: x[key] = rms(rf[x["budget"]]["L"], m=msk)
+    for x in res["refine"]: x[key] = rms(rf[(x["N"], x["budget"])]["L"], m=msk)
     for x in res["cycles"]: x[key] = rms(cy[x["samples"]]["L"], m=msk)
     pl(lab)
     pl()
@@ -253,7 +253,7 @@ for lab, msk, key in [(f"Same, away from the block–floor contact ({strip.sum()
         pl(f"| {tgt:.1%} | {fmt(tc)} | {fmt(tr)} | {ratio(tc, tr)} | {fmt(tf)} | {ratio(tc, tf)} |")
         res.setdefault("reach", []).append(dict(kind=key, target=tgt, cycles=tc and tc[1], radbake=tr and tr[1], refine=tf and tf[1]))
     pl()
-pl("| errors of these subsets | " + " | ".join(f"N={x['N']}" for x in res["radbake"]) + " | " + " | ".join(f"refine {x['budget']}" for x in res["refine"]) + " | " + " | ".join(f"{x['samples']} spp" for x in res["cycles"]) + " |")
+pl("| errors of these subsets | " + " | ".join(f"N={x['N']}" for x in res["radbake"]) + " | " + " | ".join(f"N={x['N']} refined to {x['budget']}" for x in res["refine"]) + " | " + " | ".join(f"{x['samples']} spp" for x in res["cycles"]) + " |")
 pl("|---" * (1 + len(res["radbake"]) + len(res["refine"]) + len(res["cycles"])) + "|")
 for key, lab in [("err_nostrip", "away from contact"), ("err_smooth", "walls + ceiling")]:
     pl(f"| {lab} | " + " | ".join(f"{x[key]:.2%}" for x in res["radbake"] + res["refine"] + res["cycles"]) + " |")
@@ -266,7 +266,7 @@ nmax = max(x["N"] for x in res["radbake"]); smax = max(cy)
 nmid = 8 if 8 in rb else nmax; smid = 256 if 256 in cy else smax
 cols = [("radbake", nmid), ("radbake", nmax)] + [("refine", t) for t in sorted(rf)] + [("Cycles", smid), ("Cycles", smax)]
 get = lambda k, v: rb[v]["L"] if k == "radbake" else rf[v]["L"] if k == "refine" else cy[v]["L"]
-head = lambda k, v: f"radbake N = {v}" if k == "radbake" else f"radbake --refine, {v} patches budget" if k == "refine" else f"Cycles {v} spp"
+head = lambda k, v: f"radbake N = {v}" if k == "radbake" else f"radbake N = {v[0]} refined, budget {v[1]}" if k == "refine" else f"Cycles {v} spp"
 pl("| region | points | of them radbake-referenced | " + " | ".join(head(k, v) for k, v in cols) + " |")
 pl("|---" * (len(cols) + 3) + "|")
 for rg in list(np.unique(region)) + ["all"]:
@@ -285,7 +285,7 @@ if fl.any():
        f"one patch width around the blocks.")
     for t in sorted(rf):
         dd = ((rf[t]["L"] - ref) / ref.mean(1, keepdims=True))[fl].mean(1)
-        pl(f"With `--refine {rf[t]['target']:g} --max-patches {t}` ({rf[t]['patches']} patches): {dd.mean():+.1%} on average there (worst {dd.min():+.0%}).")
+        pl(f"With `--subdivide {t[0]} --refine {rf[t]['target']:g} --max-patches {t[1]}` ({rf[t]['patches']} patches): {dd.mean():+.1%} on average there (worst {dd.min():+.0%}).")
     pl()
 
 md = "\n".join(lines)

@@ -5,9 +5,9 @@
 #
 #   bench/cycles/run.sh
 #
-# Settings (environment): RADBAKE_N="1 2 4 8 12 16"  RADBAKE_REFINE="1000 3000 10000 30000" (--max-patches of
-#   --refine $REFINE_TARGET (0.02), from the file's own faces: the budget, not the target, ends refinement where
-#   shadow and contact lines are sharp)  CYCLES_SAMPLES="4 16 64 256 1024"
+# Settings (environment): RADBAKE_N="1 2 4 8 12 16"  RADBAKE_REFINE="1:3000 8:5000 8:10000 16:20000" (N:B,
+#   --subdivide N --refine $REFINE_TARGET (0.02) --max-patches B: the budget, not the target, ends refinement
+#   where shadow and contact lines are sharp)  CYCLES_SAMPLES="4 16 64 256 1024"
 #   REF_N="16 24" (radbake levels extrapolated for the reference)  REF_SAMPLES=2048 (two Cycles runs)
 #   M=13 (probe grid per face)  TAU=0.0025 (radbake counts as converged where its extrapolation step is below)
 # Needs: blender (Debian 3.4), /usr/bin/python3 with numpy, scipy, matplotlib; builds radbake if missing.
@@ -20,7 +20,7 @@ bin=build/plugin/cli/radbake
 [ -x "$bin" ] || scripts/build.sh
 scene=${SCENE:-tests/data/scenes/cornell_box.gltf}
 RADBAKE_N=${RADBAKE_N:-"1 2 4 8 12 16"}
-RADBAKE_REFINE=${RADBAKE_REFINE:-"1000 3000 10000 30000"}
+RADBAKE_REFINE=${RADBAKE_REFINE:-"1:3000 8:5000 8:10000 16:20000"}
 REFINE_TARGET=${REFINE_TARGET:-0.02}
 CYCLES_SAMPLES=${CYCLES_SAMPLES:-"4 16 64 256 1024"}
 REF_N=${REF_N:-"16 24"}
@@ -63,12 +63,13 @@ for n in $levels; do
   echo "radbake N=$n: $(cut -d' ' -f1 "$out/radbake/N$n.time") s wall, $(awk '{print $2+$3}' "$out/radbake/N$n.time") s CPU, load $(load)"
 done
 
-# radbake with adaptive refinement at each budget
-for e in $RADBAKE_REFINE; do
-  timed "$out/radbake/R$e.time" "$bin" bake "$scene" -o "$out/radbake/R$e.glb" --refine "$REFINE_TARGET" --max-patches "$e" -q \
-    --report "$out/radbake/R$e.json" --probe "$out/probes.csv" --probe-out "$out/radbake/R$e.csv"
-  rm -f "$out/radbake/R$e.glb"
-  echo "radbake --refine $REFINE_TARGET --max-patches $e: $(cut -d' ' -f1 "$out/radbake/R$e.time") s wall, $(awk '{print $2+$3}' "$out/radbake/R$e.time") s CPU, load $(load)"
+# radbake with adaptive refinement from a uniform start, at each budget
+for nb in $RADBAKE_REFINE; do
+  n=${nb%%:*}; b=${nb##*:}; e="R${n}_$b"
+  timed "$out/radbake/$e.time" "$bin" bake "$scene" -o "$out/radbake/$e.glb" --subdivide "$n" --refine "$REFINE_TARGET" \
+    --max-patches "$b" -q --report "$out/radbake/$e.json" --probe "$out/probes.csv" --probe-out "$out/radbake/$e.csv"
+  rm -f "$out/radbake/$e.glb"
+  echo "radbake --subdivide $n --refine $REFINE_TARGET --max-patches $b: $(cut -d' ' -f1 "$out/radbake/$e.time") s wall, $(awk '{print $2+$3}' "$out/radbake/$e.time") s CPU, load $(load)"
 done
 
 # Cycles at each sample count (seed 0), then two reference runs with other seeds
