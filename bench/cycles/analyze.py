@@ -199,7 +199,7 @@ pl(f"N = {NB} serves the reference only; not listed. Core time: radbake's report
 pl()
 
 # --- time to reach ------------------------------------------------------------------------
-def reach(ts, es, target):
+def reach(ts, es, target, extrapolate=True):
     ts, es = np.asarray(ts, float), np.asarray(es, float)
     o = np.argsort(ts); ts, es = ts[o], es[o]
     if es[0] <= target: return ("≤", ts[0])
@@ -207,7 +207,9 @@ def reach(ts, es, target):
         if es[i] <= target:
             t = np.exp(np.interp(np.log(target), [np.log(es[i]), np.log(es[i - 1])], [np.log(ts[i]), np.log(ts[i - 1])]))
             return ("", t)
-    # not reached: extrapolate the power law err ~ t^k fitted to the last three runs (reported as such)
+    # not reached: extrapolate the power law err ~ t^k fitted to the last three runs (reported as such);
+    # not for the refinement runs, whose starts differ (they are not one curve)
+    if not extrapolate: return None
     k, c = np.polyfit(np.log(ts[-3:]), np.log(es[-3:]), 1)
     if k < -0.05:
         return ("~", float(np.exp((np.log(target) - c) / k)), k)
@@ -232,7 +234,7 @@ for label, key, cols in [("core time (Cycles: the bake call; radbake: the report
     for tgt in (0.02, 0.01, 0.005):
         tc = reach([c["bake_wall" if key == "core" else key] for c in res["cycles"]], [c["err"] for c in res["cycles"]], tgt)
         tr = reach([c["total" if key == "core" else key] for c in res["radbake"]], [c["err"] for c in res["radbake"]], tgt)
-        tf = reach([c["total" if key == "core" else key] for c in res["refine"]], [c["err"] for c in res["refine"]], tgt) if len(res["refine"]) > 1 else None
+        tf = reach([c["total" if key == "core" else key] for c in res["refine"]], [c["err"] for c in res["refine"]], tgt, False) if res["refine"] else None
         pl(f"| {tgt:.1%} | {fmt(tc)} | {fmt(tr)} | {ratio(tc, tr)} | {fmt(tf)} | {ratio(tc, tf)} |")
         res.setdefault("reach", []).append(dict(kind=key, target=tgt, cycles=tc and tc[1], radbake=tr and tr[1], refine=tf and tf[1]))
     pl()
@@ -249,7 +251,7 @@ for lab, msk, key in [(f"Same, away from the block–floor contact ({strip.sum()
     for tgt in (0.02, 0.01, 0.005):
         tc = reach([c["bake_wall"] for c in res["cycles"]], [c[key] for c in res["cycles"]], tgt)
         tr = reach([c["total"] for c in res["radbake"]], [c[key] for c in res["radbake"]], tgt)
-        tf = reach([c["total"] for c in res["refine"]], [c[key] for c in res["refine"]], tgt) if len(res["refine"]) > 1 else None
+        tf = reach([c["total"] for c in res["refine"]], [c[key] for c in res["refine"]], tgt, False) if res["refine"] else None
         pl(f"| {tgt:.1%} | {fmt(tc)} | {fmt(tr)} | {ratio(tc, tr)} | {fmt(tf)} | {ratio(tc, tf)} |")
         res.setdefault("reach", []).append(dict(kind=key, target=tgt, cycles=tc and tc[1], radbake=tr and tr[1], refine=tf and tf[1]))
     pl()
