@@ -445,9 +445,15 @@ TEST(Bake, RefinedBakeValidatesAndReports) {
   EXPECT_EQ(refinement["maxPatches"].get<int>(), 1500);
   EXPECT_GT(j["counts"]["patches"].get<int>(), 24 * 16) << j["counts"];
   EXPECT_LT(j["counts"]["patches"].get<int>(), 1500 * 2) << j["counts"];
+  // The same as a lightmap: the atlas takes the refined triangles (fans included).
+  const fs::path lightmapped = tempDir() / "refined_lightmapped.glb";
+  const RunResult lm = radbake({"bake", in, "-o", lightmapped.string(), "--refine", "0.05", "--max-patches", "1500", "-q",
+                                "--lightmap", (tempDir() / "refined.exr").string()});
+  ASSERT_EQ(lm.code, 0) << lm.err;
+  EXPECT_TRUE(fs::exists(tempDir() / "refined.exr"));
   if (validatorAvailable()) {
     std::string log;
-    EXPECT_EQ(runValidator({out}, &log), 0) << log;
+    EXPECT_EQ(runValidator({out, lightmapped}, &log), 0) << log;
   }
   const RunResult constant = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--refine", "0.05", "--method", "constant"});
   EXPECT_EQ(constant.code, 1);
