@@ -1952,11 +1952,68 @@ struct PatchLight {
   double error = 0, level = 0;
 };
 
+// An emitting polygon as the measure sees it: a whole uniformly emitting face (its n × n grid of
+// level-0 cells, one polygon: a Cornell box light at --subdivide 8 is one source instead of 64, and
+// visibleFraction's pieces resolve it as finely), or a single emitting patch.
+struct Emitter {
+  std::array<Vec3, 4> q;
+  Vec3 normal;
+  double emission = 0;               // luminance
+  uint32_t firstPatch = 0, lastPatch = 0;  // the patches it stands for: a range, or one patch
+  std::vector<uint32_t> patches;     // when not a range
+  bool holds(uint32_t k) const {
+    return patches.empty() ? k >= firstPatch && k <= lastPatch : std::find(patches.begin(), patches.end(), k) != patches.end();
+  }
+};
+
+std::vector<Emitter> measuredEmitters(const PatchMesh& mesh) {
+  // Group emitting patches by face and side; a group becomes one polygon when it is exactly the
+  // face's n × n grid at level 0 with one emission (its corners from the grid's corner cells).
+  std::map<std::tuple<int, int, bool>, std::vector<uint32_t>> faces;
+  std::vector<Emitter> out;
+  for (size_t k = 0; k < mesh.patches.size(); ++k) {
+    const Patch& p = mesh.patches[k];
+    if (!(luminance(p.emission) > 0)) continue;
+    if (p.cell.primitive >= 0) faces[{p.cell.primitive, p.cell.face, p.backSide}].push_back(uint32_t(k));
+    else out.push_back({corners(mesh, p), p.normal, luminance(p.emission), uint32_t(k), uint32_t(k), {}});
+  }
+  for (const auto& [key, group] : faces) {
+    int n = 0;
+    bool grid = true;
+    for (uint32_t k : group) {
+      const Patch& p = mesh.patches[k];
+      grid &= p.cell.level == 0 && p.emission == mesh.patches[group[0]].emission;
+      n = std::max({n, p.cell.i + 1, p.cell.j + 1});
+    }
+    grid &= group.size() == size_t(n) * size_t(n);
+    std::array<uint32_t, 4> corner{};  // the patches at the grid's four corners
+    int found = 0;
+    for (uint32_t k : group) {
+      const Cell& c = mesh.patches[k].cell;
+      for (int e = 0; e < 4; ++e)
+        if (c.i == (e == 1 || e == 2 ? n - 1 : 0) && c.j == (e >= 2 ? n - 1 : 0)) {
+          corner[e] = k;
+          found |= 1 << e;
+        }
+    }
+    const bool backSide = std::get<2>(key);
+    if (grid && found == 15 && !backSide) {
+      const Patch& first = mesh.patches[group[0]];
+      std::array<Vec3, 4> q;
+      for (int e = 0; e < 4; ++e) q[e] = mesh.positions[mesh.patches[corner[e]].v[e]];
+      const auto [lo, hi] = std::minmax_element(group.begin(), group.end());
+      const bool contiguous = size_t(*hi - *lo) + 1 == group.size();  // a face's patches are made together
+      out.push_back({q, first.normal, luminance(first.emission), *lo, *hi, contiguous ? std::vector<uint32_t>{} : group});
+    } else {
+      for (uint32_t k : group) out.push_back({corners(mesh, mesh.patches[k]), mesh.patches[k].normal, luminance(mesh.patches[k].emission), k, k, {}});
+    }
+  }
+  return out;
+}
+
 std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& mesh, const std::vector<uint32_t>& which) {
   std::vector<PatchLight> out(which.size());
-  std::vector<uint32_t> emitters;
-  for (size_t k = 0; k < mesh.patches.size(); ++k)
-    if (luminance(mesh.patches[k].emission) > 0) emitters.push_back(uint32_t(k));
+  const std::vector<Emitter> emitters = measuredEmitters(mesh);
   if ((emitters.empty() && scene.lights.empty()) || which.empty()) return out;
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
@@ -1979,15 +2036,14 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
         const Vec3 x = pointOnPatch(q, kSample[i][0], kSample[i][1]);
         const Sight sight{occlusion, mesh, x + patch.normal * (occlusion.epsilon() * 10), ignore, {}};
         double d = luminance(directIrradiance(scene.lights, sight, x, patch.normal)) / kPi;
-        for (uint32_t e : emitters) {
-          if (e == k || int(e) == patch.twin) continue;
-          const Patch& source = mesh.patches[e];
-          const auto qe = corners(mesh, source);
+        for (const Emitter& source : emitters) {
+          if (source.holds(k) || source.holds(uint32_t(patch.twin))) continue;  // a patch does not light itself
+          const auto& qe = source.q;
           if (!(dot(source.normal, x - qe[0]) > 0)) continue;  // behind the emitter: it sends nothing here
           const double factor = pointPolygonFactor(x, patch.normal, qe.data(), 4);
           if (!(factor > 0)) continue;
           const auto seen = visibleFraction(sight, patch.normal, qe, source.normal, kVisibilityPiece / 10, rays);
-          d += luminance(source.emission) * factor * (seen[0] + seen[1] + seen[2] + seen[3]) / 4;
+          d += source.emission * factor * (seen[0] + seen[1] + seen[2] + seen[3]) / 4;
         }
         value[i] = luminance(patch.reflectance) * d;
       }
