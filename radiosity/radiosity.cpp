@@ -1950,7 +1950,30 @@ namespace {
 // cent) above a 1% target forever.
 struct PatchLight {
   double error = 0, level = 0;
+  double nearError = 0;  // the same for the open share of the near hemisphere (nearOpenness), times ρ
 };
+
+// The indirect light a point takes is lowest where nearby surfaces close its hemisphere: at a
+// block's foot, in a corner, under a ledge. So the measure also interpolates the share of 16
+// fixed, cosine-distributed directions that leave a radius of kNearRadius × the scene size
+// without hitting anything: a floor cell straddling the footprint of a block standing in shadow
+// has no direct light on either side, and only this sees it (Cornell box, floor points 1.3 cm
+// from a block in its shadow: −37% refined by the direct light alone, −2% at a uniform N = 24).
+constexpr double kNearRadius = 0.05;
+double nearOpenness(const Sight& sight, const Vec3& n, double radius) {
+  const Vec3 helper = std::abs(n.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  const Vec3 t = normalize(cross(n, helper)), b = cross(n, t);
+  std::array<Vec3, 16> to;
+  for (int k = 0; k < 16; ++k) {
+    // Stratified in (r², φ) on the unit disc, projected up: cosine-distributed (Malley's method).
+    const double u = (k / 4 + 0.5) / 4, phi = 2 * kPi * ((k % 4) + 0.5 * (k / 4 % 2) + 0.25) / 4;
+    const double r = std::sqrt(u), h = std::sqrt(std::max(0.0, 1 - u));
+    to[k] = sight.from + (t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * h) * radius;
+  }
+  bool seen[16];
+  sight.visibleAll(to, seen);
+  return double(std::count(seen, seen + 16, true)) / 16;
+}
 
 // An emitting polygon as the measure sees it: a whole uniformly emitting face (its n × n grid of
 // level-0 cells, one polygon: a Cornell box light at --subdivide 8 is one source instead of 64, and
@@ -2030,11 +2053,12 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
       const auto q = corners(mesh, patch);
       const uint32_t self[2] = {k, uint32_t(patch.twin)};
       const std::span<const uint32_t> ignore(self, patch.twin >= 0 ? 2 : 1);
-      double value[9];
+      double value[9], open[9];
       size_t rays = 0;
       for (int i = 0; i < 9; ++i) {
         const Vec3 x = pointOnPatch(q, kSample[i][0], kSample[i][1]);
         const Sight sight{occlusion, mesh, x + patch.normal * (occlusion.epsilon() * 10), ignore, {}};
+        open[i] = luminance(patch.reflectance) * nearOpenness(sight, patch.normal, kNearRadius * occlusion.sceneSize());
         double d = luminance(directIrradiance(scene.lights, sight, x, patch.normal)) / kPi;
         for (const Emitter& source : emitters) {
           if (source.holds(k) || source.holds(uint32_t(patch.twin))) continue;  // a patch does not light itself
@@ -2047,12 +2071,13 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
         }
         value[i] = luminance(patch.reflectance) * d;
       }
-      double worst = 0;
+      double worst = 0, worstNear = 0;
       for (int i = 4; i < 9; ++i) {
         const auto n = shapeFunctions(kSample[i][0], kSample[i][1]);
         worst = std::max(worst, std::abs(value[i] - (n[0] * value[0] + n[1] * value[1] + n[2] * value[2] + n[3] * value[3])));
+        worstNear = std::max(worstNear, std::abs(open[i] - (n[0] * open[0] + n[1] * open[1] + n[2] * open[2] + n[3] * open[3])));
       }
-      out[w] = {worst, (value[0] + value[1] + value[2] + value[3] + 4 * value[4]) / 8};
+      out[w] = {worst, (value[0] + value[1] + value[2] + value[3] + 4 * value[4]) / 8, worstNear};
     }
   });
   return out;
@@ -2120,7 +2145,8 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
     for (size_t k = 0; k < mesh.patches.size(); ++k) {
       const Cell& cell = mesh.patches[k].cell;
       if (cell.primitive < 0 || cell.level >= kMaxRefineLevel || !(mean > 0)) continue;
-      const double e = known[keys[k]].error / mean;
+      // The near hemisphere's share stands for the indirect light, at the scale of the mean direct light.
+      const double e = known[keys[k]].error / mean + known[keys[k]].nearError;
       summary.worst = std::max(summary.worst, e);
       if (e > target) above[cell] += e * e * mesh.patches[k].area;
     }

@@ -890,6 +890,43 @@ TEST(Refinement, APointLightsShadowIsResolvedWithFewerPatchesThanAUniformSplit) 
   EXPECT_LT(refinedError, uniformError / 4);
 }
 
+// A box standing on a floor, the floor along one side of its footprint in the box's own shadow:
+// no direct light on either side of that edge (under the box, in its shadow), so only the near
+// hemisphere's share (the indirect light's proxy) can ask for cells there. Every floor cell that
+// straddles that edge is refined to 1/8 of the floor or finer.
+TEST(Refinement, AContactInShadowIsRefinedByTheNearHemisphere) {
+  Scene scene;
+  scene.materials = {material("floor", 0.5, 0), material("box", 0.5, 0)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));  // faces +y
+  // Its shadowed side at x = −0.43: not on any cell's edge at any level.
+  scene.primitives.push_back(boxPrimitive({-0.43, 0, -0.5}, {0.57, 1, 0.5}, false, 1));
+  for (int p = 0; p < 2; ++p) scene.primitives[p].primitive = p;
+  PunctualLight light;
+  light.position = {3, 3, 0};
+  light.intensity = {10, 10, 10};
+  scene.lights.push_back(light);
+  TessellateOptions t;
+  t.subdivide = 4;
+  PatchMesh mesh = tessellate(scene, t);
+  const Refinement r = refineMesh(scene, t, mesh, 0.02, 3000);
+  EXPECT_GT(r.rounds, 2);
+  int straddling = 0;
+  for (const Patch& p : mesh.patches) {
+    if (p.material != 0) continue;
+    double lo = 1e9, hi = -1e9, zlo = 1e9, zhi = -1e9;
+    for (uint32_t v : p.v) {
+      lo = std::min(lo, mesh.positions[v].x);
+      hi = std::max(hi, mesh.positions[v].x);
+      zlo = std::min(zlo, mesh.positions[v].z);
+      zhi = std::max(zhi, mesh.positions[v].z);
+    }
+    if (!(lo < -0.43 && hi > -0.43 && zhi < 0.3 && zlo > -0.3)) continue;
+    ++straddling;
+    EXPECT_GE(p.cell.level, 3) << "a floor cell across the footprint's shadowed edge at x " << lo << " to " << hi;
+  }
+  EXPECT_GT(straddling, 0);
+}
+
 // A unit room (ρ 0.5, its faces with their own vertices as Blender exports a cube) lit by a
 // double-sided lamp (0.2 × 0.2, L⁰ 1) 2 cm under its ceiling, hierarchical against exact at 12×12
 // patches a face: the bounds, RMS ≤ 0.5% and largest ≤ 3% of the mean radiance. The ceiling
