@@ -9,9 +9,11 @@
 
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -53,6 +55,18 @@ inline Vec3 normalize(const Vec3& v) {
 inline bool isFinite(const Vec3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
+
+// FNV-1a over 64-bit words: the hash of keys made of exact bit patterns (welded positions, a
+// patch's corners), where equal bits are what "the same point" means.
+constexpr size_t hashWords(std::span<const uint64_t> words) {
+  size_t h = 1469598103934665603ull;
+  for (uint64_t v : words) h = (h ^ v) * 1099511628211ull;
+  return h;
+}
+template <size_t N>
+struct WordsHash {
+  size_t operator()(const std::array<uint64_t, N>& k) const { return hashWords(k); }
+};
 
 // Axis-aligned bounds of points, for sizes that set tolerances (welding, ray offsets, rates).
 struct Bounds {

@@ -1938,10 +1938,6 @@ bool passesCutout(const Scene& scene, const PatchMesh& mesh, uint32_t patch, dou
   return mask.baseAlpha * sampleAlpha(scene, mask.texture, tu, tv) < mask.cutoff;
 }
 
-}  // namespace
-
-namespace {
-
 // What refinement measures of a patch: how far the bilinear interpolation of the direct light
 // (emitting patches: exact factors, visibility in pieces of a tenth of the transport's; punctual
 // lights, shadowed; not the sky) between points just inside its corners misses it at its centre
@@ -2071,12 +2067,16 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
         }
         value[i] = luminance(patch.reflectance) * d;
       }
-      double worst = 0, worstNear = 0;
-      for (int i = 4; i < 9; ++i) {
-        const auto n = shapeFunctions(kSample[i][0], kSample[i][1]);
-        worst = std::max(worst, std::abs(value[i] - (n[0] * value[0] + n[1] * value[1] + n[2] * value[2] + n[3] * value[3])));
-        worstNear = std::max(worstNear, std::abs(open[i] - (n[0] * open[0] + n[1] * open[1] + n[2] * open[2] + n[3] * open[3])));
-      }
+      // How far the bilinear interpolation of the corner samples misses the inner ones.
+      auto missed = [&](const double* v) {
+        double worst = 0;
+        for (int i = 4; i < 9; ++i) {
+          const auto n = shapeFunctions(kSample[i][0], kSample[i][1]);
+          worst = std::max(worst, std::abs(v[i] - (n[0] * v[0] + n[1] * v[1] + n[2] * v[2] + n[3] * v[3])));
+        }
+        return worst;
+      };
+      const double worst = missed(value), worstNear = missed(open);
       out[w] = {worst, (value[0] + value[1] + value[2] + value[3] + 4 * value[4]) / 8, worstNear};
     }
   });
@@ -2087,13 +2087,6 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
 // unchanged from the next tessellation keeps its measure (the emitters do not move), so each round
 // measures only the new patches: the measure was 24 of the Cornell box's 32 s at --refine 0.2.
 using PatchKey = std::array<uint64_t, 13>;
-struct PatchKeyHash {
-  size_t operator()(const PatchKey& k) const {
-    size_t h = 1469598103934665603ull;
-    for (uint64_t v : k) h = (h ^ v) * 1099511628211ull;
-    return h;
-  }
-};
 PatchKey patchKey(const PatchMesh& mesh, const Patch& patch) {
   PatchKey key{};
   for (int c = 0; c < 4; ++c) {
@@ -2114,7 +2107,7 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
   Refinement summary;
   summary.maxPatches = maxPatches > 0 ? maxPatches : std::max<size_t>(20000, 4 * mesh.patches.size());
   constexpr int kMaxRounds = 4 * kMaxRefineLevel;
-  std::unordered_map<PatchKey, PatchLight, PatchKeyHash> known;
+  std::unordered_map<PatchKey, PatchLight, WordsHash<13>> known;
   size_t emitters = 0;
   for (int round = 0;; ++round) {
     // Measure the patches not seen before (all of them if the emitters changed).

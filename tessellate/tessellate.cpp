@@ -59,11 +59,7 @@ struct WeldKey {
   bool operator==(const WeldKey&) const = default;
 };
 struct WeldHash {
-  size_t operator()(const WeldKey& k) const {
-    size_t h = 1469598103934665603ull;
-    for (uint64_t v : {k.px, k.py, k.pz, uint64_t(k.material)}) h = (h ^ v) * 1099511628211ull;
-    return h;
-  }
+  size_t operator()(const WeldKey& k) const { return hashWords(std::array<uint64_t, 4>{k.px, k.py, k.pz, uint64_t(k.material)}); }
 };
 
 uint64_t bits(double v) { return std::bit_cast<uint64_t>(v == 0.0 ? 0.0 : v); }  // -0 welds with +0
@@ -92,6 +88,11 @@ struct Welder {
 using PointId = std::tuple<int, uint32_t, uint32_t, int, int>;  // kind, a, b, i, j
 
 Vec3 lerp(const Vec3& a, const Vec3& b, double t) { return a + (b - a) * t; }
+
+// A primitive's subdivision scheme: its own (flagged in the file), else --subdivision-surfaces.
+SubdivisionScheme schemeOf(const Primitive& prim, const TessellateOptions& options) {
+  return prim.subdivision != SubdivisionScheme::kNone ? prim.subdivision : options.subdivisionSurfaces;
+}
 
 int subdivisionFor(const Primitive& prim, const TessellateOptions& options) {
   int n = std::max(1, options.subdivide);
@@ -406,6 +407,49 @@ void tessellateSubdivided(const Scene& scene, int primIndex, SubdivisionScheme s
   }
 }
 
+struct GridPoint {
+  Vec3 position;
+  PointId id;
+  std::array<double, 4> w;  // the face corners' weights (for the normal)
+};
+
+// Point (I, J) of face f's grid of n·2^level cells a side (level 0: the uniform n × n grid;
+// deeper: adaptive refinement's cells). Points on a face edge are computed from the edge's
+// endpoints in the order of their positions (then indices), so the neighbouring face produces the
+// same bits: the two weld, and the edge matches for the closedness test (Enclosures) also where
+// each face has its own vertices, as in Blender's export of a cube (24 vertices). In index order,
+// such a box was found open at every rate but a power of two. Ids are reduced to the coarsest
+// level that holds the point, so a point keeps one output vertex whichever cells reach it.
+GridPoint gridPoint(const Primitive& prim, const Face& f, uint32_t fi, int n, int level, long I, long J) {
+  const long N = long(n) << level;
+  const double s = double(I) / double(N), t = double(J) / double(N);
+  GridPoint g{{}, {}, {(1 - s) * (1 - t), s * (1 - t), s * t, (1 - s) * t}};
+  auto onEdge = [&](uint32_t va, uint32_t vb, long k) {
+    if (k == 0 || va == vb) return std::pair{prim.positions[va], PointId{0, va, 0, 0, 0}};
+    if (k == N) return std::pair{prim.positions[vb], PointId{0, vb, 0, 0, 0}};
+    const Vec3 &a = prim.positions[va], &b = prim.positions[vb];
+    if (std::tie(b.x, b.y, b.z, vb) < std::tie(a.x, a.y, a.z, va)) { std::swap(va, vb); k = N - k; }
+    const Vec3 x = lerp(prim.positions[va], prim.positions[vb], double(k) / double(N));
+    int L = level;
+    while (L > 0 && k % 2 == 0) { k /= 2; --L; }
+    return std::pair{x, PointId{1, va, vb, int(k), L}};
+  };
+  std::pair<Vec3, PointId> p;
+  if (J == 0) p = onEdge(f.q[0], f.q[1], I);
+  else if (J == N) p = onEdge(f.q[3], f.q[2], I);
+  else if (I == 0) p = onEdge(f.q[0], f.q[3], J);
+  else if (I == N) p = onEdge(f.q[1], f.q[2], J);
+  else {
+    const std::array<Vec3, 4> c{prim.positions[f.q[0]], prim.positions[f.q[1]], prim.positions[f.q[2]], prim.positions[f.q[3]]};
+    int L = level;
+    while (L > 0 && I % 2 == 0 && J % 2 == 0) { I /= 2; J /= 2; --L; }
+    p = {c[0] * g.w[0] + c[1] * g.w[1] + c[2] * g.w[2] + c[3] * g.w[3], PointId{2, fi, uint32_t(L), int(I), int(J)}};
+  }
+  g.position = p.first;
+  g.id = p.second;
+  return g;
+}
+
 // The receiving normal at a point of a face (weights of its corners): the file's vertex normals
 // interpolated on a smooth surface, the face normal where the file has none (glTF: flat shading).
 Vec3 faceNormalAt(const Primitive& prim, const Face& f, const std::array<double, 4>& w) {
@@ -461,35 +505,14 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
   for (size_t fi = 0; fi < faces.size(); ++fi) {
     const Face& f = faces[fi];
     const bool triangle = f.q[2] == f.q[3];
-    std::array<Vec3, 4> corner;
-    for (int k = 0; k < 4; ++k) corner[k] = prim.positions[f.q[k]];
-    // Points on a face edge are computed from the edge's endpoints in the order of their
-    // positions (then indices), so the neighbouring face produces the same bits: the two weld, and
-    // the edge matches for the closedness test (Enclosures) also where each face has its own
-    // vertices, as in Blender's export of a cube (24 vertices). In index order, such a box was
-    // found open at every rate but a power of two.
-    auto edgePoint = [&](uint32_t va, uint32_t vb, int k) -> std::pair<Vec3, PointId> {
-      if (k == 0 || va == vb) return {prim.positions[va], {0, va, 0, 0, 0}};
-      if (k == n) return {prim.positions[vb], {0, vb, 0, 0, 0}};
-      const Vec3 &a = prim.positions[va], &b = prim.positions[vb];
-      if (std::tie(b.x, b.y, b.z, vb) < std::tie(a.x, a.y, a.z, va)) { std::swap(va, vb); k = n - k; }
-      return {lerp(prim.positions[va], prim.positions[vb], double(k) / n), {1, va, vb, k, 0}};
-    };
     for (int j = 0; j <= n; ++j)
       for (int i = 0; i <= n; ++i) {
-        const double s = double(i) / n, t = double(j) / n;
-        const std::array<double, 4> w{(1 - s) * (1 - t), s * (1 - t), s * t, (1 - s) * t};
-        std::pair<Vec3, PointId> point;
-        if (j == 0) point = edgePoint(f.q[0], f.q[1], i);
-        else if (j == n) point = edgePoint(f.q[3], f.q[2], i);
-        else if (i == 0) point = edgePoint(f.q[0], f.q[3], j);
-        else if (i == n) point = edgePoint(f.q[1], f.q[2], j);
-        else point = {corner[0] * w[0] + corner[1] * w[1] + corner[2] * w[2] + corner[3] * w[3], {2, uint32_t(fi), 0, i, j}};
-        const uint32_t pv = welder.vertex(point.first, normalAt(f, w), material);
+        const GridPoint point = gridPoint(prim, f, uint32_t(fi), n, 0, i, j);
+        const uint32_t pv = welder.vertex(point.position, normalAt(f, point.w), material);
         grid[j * (n + 1) + i] = pv;
-        gridSource[j * (n + 1) + i] = locate(prim, f, point.first);
+        gridSource[j * (n + 1) + i] = locate(prim, f, point.position);
         if (flat) continue;
-        auto [it, inserted] = outputIndex.try_emplace({point.second, pv}, uint32_t(out.patchVertex.size()));
+        auto [it, inserted] = outputIndex.try_emplace({point.id, pv}, uint32_t(out.patchVertex.size()));
         if (inserted) {
           out.patchVertex.push_back(pv);
           out.source.push_back(gridSource[j * (n + 1) + i]);
@@ -699,53 +722,8 @@ void tessellateBezier(const Scene& scene, const TessellateOptions& options, Weld
 // edge's endpoints in position order), so a point shared by two cells, two faces or two primitives
 // of the same rate has the same bits on both sides: conformity is checked by position.
 
-struct PositionHash {
-  size_t operator()(const std::array<uint64_t, 3>& k) const {
-    size_t h = 1469598103934665603ull;
-    for (uint64_t v : k) h = (h ^ v) * 1099511628211ull;
-    return h;
-  }
-};
-using PositionSet = std::unordered_set<std::array<uint64_t, 3>, PositionHash>;
+using PositionSet = std::unordered_set<std::array<uint64_t, 3>, WordsHash<3>>;
 std::array<uint64_t, 3> positionKey(const Vec3& p) { return {bits(p.x), bits(p.y), bits(p.z)}; }
-
-struct GridPoint {
-  Vec3 position;
-  PointId id;
-  std::array<double, 4> w;  // the face corners' weights (for the normal)
-};
-
-// Point (I, J) of face f's grid of n·2^level cells a side. Ids are reduced to the coarsest level
-// that holds the point, so a point keeps one output vertex whichever cells reach it.
-GridPoint gridPoint(const Primitive& prim, const Face& f, uint32_t fi, int n, int level, long I, long J) {
-  const long N = long(n) << level;
-  const double s = double(I) / double(N), t = double(J) / double(N);
-  GridPoint g{{}, {}, {(1 - s) * (1 - t), s * (1 - t), s * t, (1 - s) * t}};
-  auto onEdge = [&](uint32_t va, uint32_t vb, long k) {
-    if (k == 0 || va == vb) return std::pair{prim.positions[va], PointId{0, va, 0, 0, 0}};
-    if (k == N) return std::pair{prim.positions[vb], PointId{0, vb, 0, 0, 0}};
-    const Vec3 &a = prim.positions[va], &b = prim.positions[vb];
-    if (std::tie(b.x, b.y, b.z, vb) < std::tie(a.x, a.y, a.z, va)) { std::swap(va, vb); k = N - k; }
-    const Vec3 x = lerp(prim.positions[va], prim.positions[vb], double(k) / double(N));
-    int L = level;
-    while (L > 0 && k % 2 == 0) { k /= 2; --L; }
-    return std::pair{x, PointId{1, va, vb, int(k), L}};
-  };
-  std::pair<Vec3, PointId> p;
-  if (J == 0) p = onEdge(f.q[0], f.q[1], I);
-  else if (J == N) p = onEdge(f.q[3], f.q[2], I);
-  else if (I == 0) p = onEdge(f.q[0], f.q[3], J);
-  else if (I == N) p = onEdge(f.q[1], f.q[2], J);
-  else {
-    const std::array<Vec3, 4> c{prim.positions[f.q[0]], prim.positions[f.q[1]], prim.positions[f.q[2]], prim.positions[f.q[3]]};
-    int L = level;
-    while (L > 0 && I % 2 == 0 && J % 2 == 0) { I /= 2; J /= 2; --L; }
-    p = {c[0] * g.w[0] + c[1] * g.w[1] + c[2] * g.w[2] + c[3] * g.w[3], PointId{2, fi, uint32_t(L), int(I), int(J)}};
-  }
-  g.position = p.first;
-  g.id = p.second;
-  return g;
-}
 
 // A primitive's faces, rate and leaf cells under the refinement.
 struct RefinedPrimitive {
@@ -801,8 +779,7 @@ RefinementPlan planRefinement(const Scene& scene, const TessellateOptions& optio
   if (split.empty() || options.flatPatches) return plan;
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
     const Primitive& prim = scene.primitives[p];
-    const SubdivisionScheme scheme = prim.subdivision != SubdivisionScheme::kNone ? prim.subdivision : options.subdivisionSurfaces;
-    if (scheme != SubdivisionScheme::kNone || prim.triangles.empty()) continue;
+    if (schemeOf(prim, options) != SubdivisionScheme::kNone || prim.triangles.empty()) continue;
     RefinedPrimitive& rp = plan.primitives[p];
     rp.refinable = true;
     rp.n = subdivisionFor(prim, options);
@@ -963,9 +940,7 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
     const double rate = subdivisionFor(scene.primitives[p], options);
     checkPatchBudget(double(scene.primitives[p].triangles.size()) * rate * rate + double(mesh.patches.size()), options,
                      fileName(scene), "mesh " + std::to_string(scene.primitives[p].mesh));
-    const SubdivisionScheme scheme = scene.primitives[p].subdivision != SubdivisionScheme::kNone
-                                         ? scene.primitives[p].subdivision
-                                         : options.subdivisionSurfaces;
+    const SubdivisionScheme scheme = schemeOf(scene.primitives[p], options);
     if (scheme != SubdivisionScheme::kNone && !scene.primitives[p].triangles.empty())
       tessellateSubdivided(scene, int(p), scheme, options, welder, mesh);
     else if (plan.primitives[p].cells)
