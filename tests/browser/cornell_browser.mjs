@@ -68,6 +68,7 @@ function readGltf(file) {
 const sub = (a, b) => a.map((x, i) => x - b[i]);
 const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
 const dot = (a, b) => a.reduce((s, x, i) => s + x * b[i], 0);
+const area = (a, b, c) => Math.hypot(...cross(sub(b, a), sub(c, a))) / 2;
 const normalize = (a) => { const l = Math.hypot(...a); return a.map((x) => x / l); };
 
 function makePoints(gltfFile, outDir) {
@@ -169,7 +170,175 @@ function check(args) {
   process.stdout.write(`${opt.label}: ok\n`);
 }
 
+// Refined edges of a baked file (vertex colours, --view Standard): where a cell meets one split
+// once more, the coarse side is a fan from the finer side's midpoint m, so the written mesh has no
+// hanging vertex. Per primitive: (1) no triangle edge has a vertex of that primitive at its
+// midpoint (a T-junction: the renderer would show a crack along it); (2) the refined edges a–m–b
+// (m the midpoint of a and b, both its neighbours, no triangle edge a–b, and triangles of unequal
+// size on either side of a–m and m–b: not a grid line) are listed, and the
+// midpoints of a–m and m–b, in smooth light (every vertex of the triangles on either side within
+// `smooth` code values of the point's expected colour) are written as points to render, each with
+// the colour the file gives it: COLOR_0 interpolated along the edge, as both sides' triangles do.
+function makeEdgePoints(gltfFile, outDir, smooth) {
+  const { g, accessor } = readGltf(gltfFile);
+  for (const node of g.nodes) {
+    if (node.mesh !== undefined && (node.matrix || node.translation || node.rotation || node.scale)) {
+      fail(`node ${node.name} has a transform: this helper reads mesh-space positions as world space`);
+    }
+  }
+  const rows = [];
+  let junctions = 0, refined = 0;
+  const firstJunction = [];
+  for (const mesh of g.meshes) {
+    for (const [pi, prim] of mesh.primitives.entries()) {
+      if (prim.indices === undefined || prim.attributes.COLOR_0 === undefined) continue;
+      const P = accessor(prim.attributes.POSITION), C = accessor(prim.attributes.COLOR_0), I = accessor(prim.indices);
+      const size = Math.max(...[0, 1, 2].map((c) => Math.max(...P.map((p) => Math.abs(p[c])))), 1e-30);
+      const key = (p) => p.map((x) => Math.round(x / size * 1e6)).join(',');
+      const at = new Map();  // position → a vertex there (seams may hold several with the same position)
+      P.forEach((p, i) => { if (!at.has(key(p))) at.set(key(p), i); });
+      const vkey = (i) => key(P[i]);
+      const edges = new Map();  // "ka|kb" (sorted) → third vertices of the triangles on it
+      const neighbours = new Map();  // position key → vertex indices joined to it by an edge
+      for (let t = 0; t + 2 < I.length; t += 3) {
+        const tri = [I[t], I[t + 1], I[t + 2]];
+        for (let e = 0; e < 3; ++e) {
+          const a = tri[e], b = tri[(e + 1) % 3], c = tri[(e + 2) % 3];
+          const ek = [vkey(a), vkey(b)].sort().join('|');
+          if (!edges.has(ek)) edges.set(ek, []);
+          edges.get(ek).push(c);
+          for (const [x, y] of [[a, b], [b, a]]) {
+            if (!neighbours.has(vkey(x))) neighbours.set(vkey(x), new Set());
+            neighbours.get(vkey(x)).add(y);
+          }
+          const mid = P[a].map((x, k) => (x + P[b][k]) / 2);
+          if (at.has(key(mid))) {
+            ++junctions;
+            if (firstJunction.length === 0) firstJunction.push(`${mesh.name}: triangle ${t / 3} edge ${a}-${b} passes through vertex ${at.get(key(mid))}`);
+          }
+        }
+      }
+      const colourAt = (i) => C[i].slice(0, 3);
+      const shown = (c) => c.map((x) => display(x, 0));
+      for (const [mk, nb] of neighbours) {
+        const m = at.get(mk);
+        const list = [...nb];
+        for (let x = 0; x < list.length; ++x) for (let y = x + 1; y < list.length; ++y) {
+          const a = list[x], b = list[y];
+          if (key(P[a].map((v, k) => (v + P[b][k]) / 2)) !== mk) continue;
+          if (edges.has([vkey(a), vkey(b)].sort().join('|'))) continue;
+          // A grid line through m also has a–m–b; a refined edge has cells of two sizes on its two
+          // sides: the fan's triangle on a–m is at least twice the finer side's.
+          const sides = (end) => edges.get([vkey(end), mk].sort().join('|')).map((c) => area(P[end], P[m], P[c]));
+          const unequal = (x) => x.length === 2 && Math.max(...x) >= 1.5 * Math.min(...x);
+          if (!unequal(sides(a)) || !unequal(sides(b))) continue;
+          ++refined;
+          for (const end of [a, b]) {
+            const ek = [vkey(end), mk].sort().join('|');
+            const position = P[end].map((v, k) => (v + P[m][k]) / 2);
+            const colour = colourAt(end).map((v, k) => (v + colourAt(m)[k]) / 2);
+            const expected = shown(colour);
+            const around = [end, m, ...edges.get(ek)].map((i) => shown(colourAt(i)));
+            const spread = Math.max(...around.map((c) => Math.max(...c.map((v, k) => Math.abs(v - expected[k])))));
+            if (spread <= smooth) rows.push({ name: `${mesh.name}.${pi}:${end}-${m}`, position, colour, expected });
+          }
+        }
+      }
+    }
+  }
+  process.stdout.write(`edges: ${refined} refined edges (a fan beside a split cell), ${junctions} T-junctions, ` +
+    `${rows.length} points in smooth light\n`);
+  if (junctions) fail(`T-junction: ${firstJunction[0]}`);
+  if (refined === 0) fail(`${gltfFile} has no refined edge: nothing to check`);
+  fs.mkdirSync(outDir, { recursive: true });
+  fs.writeFileSync(path.join(outDir, 'edges.json'), JSON.stringify(rows, null, 1) + '\n');
+}
+
+// The control of the T-junction count: a copy of a baked file in which the first fan found (the
+// coarse side of a refined edge a–m–b, triangles around m larger than the finer side's) is
+// re-triangulated without m, as a mesh that leaves hanging vertices would be; `edges` must then
+// fail. Written as .gltf with its buffer embedded.
+function makeCrack(gltfFile, outFile) {
+  const { g, accessor } = readGltf(gltfFile);
+  for (const mesh of g.meshes) {
+    for (const prim of mesh.primitives) {
+      if (prim.indices === undefined) continue;
+      const P = accessor(prim.attributes.POSITION), I = accessor(prim.indices);
+      const tris = [];
+      for (let t = 0; t + 2 < I.length; t += 3) tris.push([I[t], I[t + 1], I[t + 2]]);
+      for (let m = 0; m < P.length; ++m) {
+        const around = tris.map((t, k) => [t, k]).filter(([t]) => t.includes(m));
+        const big = around.filter(([t]) => area(P[t[0]], P[t[1]], P[t[2]]) > 1.5 * Math.min(...around.map(([u]) => area(P[u[0]], P[u[1]], P[u[2]]))));
+        if (big.length !== 3) continue;  // a fan from a midpoint of one edge: 3 triangles
+        const corners = [...new Set(big.flatMap(([t]) => t))].filter((v) => v !== m);
+        if (corners.length !== 4) continue;
+        // The fan in winding order: m, x, y for each triangle; chain the corners from the one after m.
+        const next = new Map(big.map(([t]) => { const i = t.indexOf(m); return [t[(i + 1) % 3], t[(i + 2) % 3]]; }));
+        const start = corners.find((c) => ![...next.values()].includes(c));
+        const ring = [start];
+        while (next.has(ring[ring.length - 1])) ring.push(next.get(ring[ring.length - 1]));
+        if (ring.length !== 4) continue;
+        const keep = tris.filter((_, k) => !big.some(([, j]) => j === k));
+        keep.push([ring[0], ring[1], ring[2]], [ring[0], ring[2], ring[3]]);
+        // Replace the primitive's indices with a new accessor in a new buffer.
+        const data = Buffer.alloc(keep.length * 12);
+        keep.flat().forEach((v, i) => data.writeUInt32LE(v, i * 4));
+        g.buffers.push({ byteLength: data.length, uri: 'data:application/octet-stream;base64,' + data.toString('base64') });
+        g.bufferViews.push({ buffer: g.buffers.length - 1, byteLength: data.length, target: 34963 });
+        g.accessors.push({ bufferView: g.bufferViews.length - 1, componentType: 5125, count: keep.length * 3, type: 'SCALAR' });
+        prim.indices = g.accessors.length - 1;
+        for (const b of g.buffers) {
+          if (!b.uri.startsWith('data:')) {
+            b.uri = 'data:application/octet-stream;base64,' + fs.readFileSync(path.join(path.dirname(gltfFile), decodeURIComponent(b.uri))).toString('base64');
+          }
+        }
+        fs.writeFileSync(outFile, JSON.stringify(g));
+        process.stdout.write(`crack: ${mesh.name}: the fan around vertex ${m} re-triangulated without it\n`);
+        return;
+      }
+    }
+  }
+  fail(`${gltfFile}: no fan found to crack`);
+}
+
+// The rendered refined-edge points: the pixel holding each point (where a crack along the edge
+// would let the black background through) within `tolerance` code values of the file's colour
+// there; at least `min` points in view and not hidden. Each expected colour is at least `dark`
+// code values above black in some channel, or a crack could pass unseen (checked).
+function checkEdges(args) {
+  const opt = {};
+  for (let i = 0; i < args.length; i += 2) opt[args[i].replace(/^--/, '')] = args[i + 1];
+  for (const k of ['points', 'render', 'tolerance', 'dark', 'min', 'label']) if (opt[k] === undefined) fail(`check-edges needs --${k}`);
+  const points = JSON.parse(fs.readFileSync(opt.points, 'utf8'));
+  const render = JSON.parse(fs.readFileSync(opt.render, 'utf8'));
+  if (points.length !== render.points.length) fail(`${points.length} points but ${render.points.length} rendered`);
+  const tolerance = Number(opt.tolerance), dark = Number(opt.dark), min = Number(opt.min);
+  let seen = 0, failures = 0, worst = 0;
+  for (const [i, pt] of render.points.entries()) {
+    if (!pt.inView || !pt.visible || !pt.centre) continue;  // behind a block, or outside the view
+    ++seen;
+    const expected = points[i].expected;
+    const off = Math.max(...[0, 1, 2].map((c) => Math.abs(pt.centre[c] - expected[c])));
+    const tooDark = Math.max(...expected) < dark;
+    worst = Math.max(worst, off);
+    if (off > tolerance || tooDark) {
+      ++failures;
+      process.stdout.write(`  ${pt.name} at pixel (${pt.pixel.map((x) => x.toFixed(1)).join(', ')}): expected (${expected.map((x) => x.toFixed(1)).join(' ')}),` +
+        ` got (${pt.centre.slice(0, 3).join(' ')}): FAIL${tooDark ? ' (too dark to show a crack)' : ''}\n`);
+    }
+  }
+  process.stdout.write(`${opt.label}: ${seen} of ${points.length} refined-edge points in view; largest error ${worst.toFixed(2)} code values ` +
+    `(tolerance ±${tolerance})\n`);
+  if (seen < min) { process.stdout.write(`${opt.label}: FAIL (fewer than ${min} points in view)\n`); process.exit(1); }
+  if (failures) { process.stdout.write(`${opt.label}: FAIL (${failures} point${failures > 1 ? 's' : ''})\n`); process.exit(1); }
+  process.stdout.write(`${opt.label}: ok\n`);
+}
+
 const [command, ...rest] = process.argv.slice(2);
 if (command === 'points' && rest.length === 2) makePoints(rest[0], rest[1]);
 else if (command === 'check') check(rest);
-else fail('usage: cornell_browser.mjs points CORNELL.gltf OUTDIR | check --values V --render R --ev EV --tolerance T --label NAME [--control-ev EV2]');
+else if (command === 'edges' && rest.length === 3) makeEdgePoints(rest[0], rest[1], Number(rest[2]));
+else if (command === 'check-edges') checkEdges(rest);
+else if (command === 'crack' && rest.length === 2) makeCrack(rest[0], rest[1]);
+else fail('usage: cornell_browser.mjs points CORNELL.gltf OUTDIR | check --values V --render R --ev EV --tolerance T --label NAME [--control-ev EV2]' +
+  ' | edges BAKED.gltf OUTDIR SMOOTH | check-edges --points P --render R --tolerance T --dark D --min N --label NAME | crack BAKED.gltf OUT.gltf');

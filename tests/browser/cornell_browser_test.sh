@@ -13,6 +13,8 @@
 #     term that a lightmap feeds (RE_IndirectDiffuse_Physical: × (1 − FssEss − Fms·Ems)), so the
 #     surfaces show 2–5 % darker than ρ·E/π, depending on the view angle; the same file with
 #     KHR_materials_specular {specularFactor: 0} matches within 0.4 code values.
+#   refined edges: --refine; no T-junction in the written mesh, and the pixels on the edges where a
+#     fan meets split cells show the file's colour (±3 code values).
 # Each check also holds the same pixels against the values of EV − 1, which must fail (a check that
 # cannot tell the exposures apart proves nothing). RADBAKE_BROWSER_BAKE_EV bakes/renders with another
 # EV than the one expected, to see the test fail. RADBAKE_BROWSER_KEEP=1 keeps the work folder.
@@ -81,6 +83,28 @@ if run "$radbake" bake "$scene" -o "$tmp/lightmap.glb" --subdivide "$subdivide" 
     --ev "$ev" --control-ev "$control_ev" --tolerance "$tol_lightmap" --label "browser_cornell lightmap" || status=1
 else
   cat "$tmp/lightmap.err" 2>/dev/null; echo "browser_cornell lightmap: FAIL (bake or render)"; status=1
+fi
+
+# Refined edges (--refine): where a cell meets one split once more, the written mesh is a fan from
+# the finer side's midpoint, so it has no T-junction to crack along (cornell_browser.mjs edges
+# counts them: 0, and a copy with one fan re-triangulated around its midpoint must give 1), and the
+# pixels on those edges show the file's colour there (±3 code values: the points lie on triangle
+# edges and in smooth light; a crack would show black, and every point is at least 40 above it).
+if run "$radbake" bake "$scene" -o "$tmp/refined.gltf" --subdivide 4 --refine 0.05 --max-patches 3000 \
+     --view Standard --exposure "$bake_ev" -q &&
+   node tests/browser/cornell_browser.mjs edges "$tmp/refined.gltf" "$tmp/edges" 3 &&
+   node tools/render_gltf.mjs "$tmp/refined.gltf" "$tmp/refined.png" --points "$tmp/edges/edges.json" \
+     >"$tmp/refined.json" 2>"$tmp/refined.err"; then
+  node tests/browser/cornell_browser.mjs check-edges --points "$tmp/edges/edges.json" --render "$tmp/refined.json" \
+    --tolerance 3 --dark 40 --min 20 --label "browser_cornell refined edges" || status=1
+  if node tests/browser/cornell_browser.mjs crack "$tmp/refined.gltf" "$tmp/cracked.gltf" >/dev/null &&
+     ! node tests/browser/cornell_browser.mjs edges "$tmp/cracked.gltf" "$tmp/cracked" 3 >/dev/null 2>&1; then
+    echo "browser_cornell refined edges: control: a fan re-triangulated without its midpoint is found as a T-junction"
+  else
+    echo "browser_cornell refined edges: FAIL: the control's T-junction went unseen"; status=1
+  fi
+else
+  cat "$tmp/refined.err" 2>/dev/null; echo "browser_cornell refined edges: FAIL (bake, edges or render)"; status=1
 fi
 
 echo "browser_cornell: $(( $(date +%s) - start )) s"
