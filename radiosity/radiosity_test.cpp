@@ -986,3 +986,58 @@ TEST(Hierarchical, ALampUnderTheCeilingAgreesWithExactTransport) {
 }
 
 }  // namespace
+
+namespace {
+
+// Contact (docs/radiosity.md): a box standing on a floor under a uniform sky, one-sided as in the
+// Cornell box and double-sided as Blender exports a cube. With cells of 0.125 the footprint's edges
+// cross floor cells, and the floor vertices under the box gather nothing; the floor just outside
+// must still take the light of the same floor split along the footprint (nine quads meeting at its
+// edges, the same cell size), at points 2 and 5 cm from it on three sides. Measured: within 4.0%
+// either way (Σ of the channels); with the vertices under the box left at zero, up to 35% too dark.
+class Contact : public ::testing::TestWithParam<bool> {};
+INSTANTIATE_TEST_SUITE_P(Sides, Contact, ::testing::Bool(),
+                         [](const auto& info) { return info.param ? "double_sided" : "one_sided"; });
+
+TEST_P(Contact, TheFloorBesideABoxTakesTheLightOfAFloorSplitAlongItsFootprint) {
+  const double x0 = -0.43, x1 = 0.57, z0 = -0.47, z1 = 0.53;  // on no cell edge at 8 × 8
+  auto solve = [&](bool split, double maxEdge, bool doubleSided) {
+    Scene scene;
+    scene.materials = {material("floor", 0.5, 0), material("box", 0.5, 0, doubleSided)};
+    const double xs[4] = {-2, x0, x1, 2}, zs[4] = {-2, z0, z1, 2};
+    if (split) {
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          scene.primitives.push_back(quadPrimitive({Vec3{xs[i], 0, zs[j]}, {xs[i], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j]}}, 0));
+    } else {
+      scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
+    }
+    scene.primitives.push_back(boxPrimitive({x0, 0, z0}, {x1, 1, z1}, false, 1));
+    for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+    TessellateOptions t;
+    t.subdivide = 1;
+    t.maxEdgeLength = maxEdge;
+    Baked b;
+    b.mesh = tessellate(scene, t);
+    RadiosityOptions o;
+    o.transport = TransportMode::kExact;
+    o.sky = {1, 1, 1};
+    b.solution = solveRadiosity(scene, b.mesh, o);
+    return b;
+  };
+  // The reference's box is one-sided whatever the case's: the outside is the same. (A double-sided
+  // box on the split floor is not right yet: its inside's closure takes floor vertices along the
+  // footprint, and the floor beside it comes out up to 25% dark, 7% still 0.5 m away.)
+  const Baked coarse = solve(false, 0.125, GetParam()), reference = solve(true, 0.125, false);
+  EXPECT_GT(coarse.solution.contactUnknowns, 0u);
+  for (const double gap : {0.02, 0.05})
+    for (const double along : {-0.3, 0.0, 0.3})
+      for (const Vec3& x : {Vec3{x0 - gap, 0, along}, Vec3{x1 + gap, 0, along}, Vec3{along, 0, z0 - gap}}) {
+        const Vec3 a = evaluateRadiance(coarse.solution, coarse.mesh, x, {0, 1, 0});
+        const Vec3 r = evaluateRadiance(reference.solution, reference.mesh, x, {0, 1, 0});
+        const double off = std::abs((a.x + a.y + a.z) / (r.x + r.y + r.z) - 1);
+        EXPECT_LT(off, 0.06) << "floor at (" << x.x << ", " << x.z << "): " << a.x << " against " << r.x;
+      }
+}
+
+}  // namespace

@@ -102,6 +102,24 @@ bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32
   return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
 }
 
+int64_t Occlusion::firstHit(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore) const {
+  const Vec3 d = to - from;
+  const double dist = length(d);
+  if (dist <= 2 * epsilon_) return -1;
+  FilterContext fc{{}, ignore, &passes_};
+  rtcInitIntersectContext(&fc.context);
+  if (!ignore.empty() || passes_) fc.context.filter = skipIgnored;
+  RTCRayHit rh{};
+  rh.ray.org_x = float(from.x); rh.ray.org_y = float(from.y); rh.ray.org_z = float(from.z);
+  rh.ray.dir_x = float(d.x / dist); rh.ray.dir_y = float(d.y / dist); rh.ray.dir_z = float(d.z / dist);
+  rh.ray.tnear = float(epsilon_);
+  rh.ray.tfar = float(dist - epsilon_);
+  rh.ray.mask = 0xFFFFFFFF;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &fc.context, &rh);
+  return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1 : int64_t(rh.hit.primID);
+}
+
 void Occlusion::visibleFrom(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore,
                             bool* visible) const {
   // Segments sharing their origin and ignore list, handed to visibleEach 16 at a time.

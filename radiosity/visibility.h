@@ -37,6 +37,9 @@ class Occlusion {
     std::span<const uint32_t> ignore;
   };
   void visibleEach(std::span<const Segment> segments, bool* visible) const;
+  // The patch whose surface the segment from `from` to `to` meets first (strictly between, as in
+  // visible(); ignored and cut-out patches stepped over), or -1.
+  int64_t firstHit(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore = {}) const;
   // Cut-out patches (alpha MASK): `passes(patch, u, v)` says whether light goes through `patch` at
   // Embree's quad coordinates (v0 = (0,0), v1 = (1,0), v2 = (1,1), v3 = (0,1); split v0 v1 v3 /
   // v2 v3 v1). Set before any query; only patches with a mask are asked.

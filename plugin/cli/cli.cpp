@@ -375,7 +375,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
                     {"farLinks", solution.farLinks}, {"refinedLinks", solution.refinedLinks}, {"clusterRays", solution.clusterRays}, {"nearRays", solution.nearRays}, {"clusters", solution.clusters},
                     {"linkErrorBound", solution.linkErrorBound}, {"transportBytes", solution.transportBytes},
                     {"enclosedUnknowns", solution.enclosedUnknowns}, {"closureCorrection", solution.closureCorrection},
-                    {"darkUnknowns", solution.darkUnknowns}}},
+                    {"darkUnknowns", solution.darkUnknowns}, {"contactUnknowns", solution.contactUnknowns}}},
         {"energy", {{"emittedPower", solution.emittedPower}, {"absorbedPower", solution.absorbedPower},
                     {"escapedFraction", solution.emittedPower > 0 ? 1 - solution.absorbedPower / solution.emittedPower : 0.0}}},
         {"display", {{"config", summary.display.configName}, {"display", summary.display.options.display},
