@@ -2132,6 +2132,7 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
   if ((emitters.empty() && scene.lights.empty()) || which.empty()) return out;
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
+  const auto closure = makeClosure(scene, mesh, Method::kBilinear);
   // Points just inside the patch (a corner's value as its patch sees it: a vertex at a block's foot
   // is lit from one side and dark from the other), corners first, then the centre and the edge
   // midpoints, in the parameters [-1, 1]² of pointOnPatch.
@@ -2146,11 +2147,15 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
       const uint32_t self[2] = {k, uint32_t(patch.twin)};
       const std::span<const uint32_t> ignore(self, patch.twin >= 0 ? 2 : 1);
       double value[9], open[9];
+      bool hidden[9];
       size_t rays = 0;
       for (int i = 0; i < 9; ++i) {
         const Vec3 x = pointOnPatch(q, kSample[i][0], kSample[i][1]);
         const Sight sight{occlusion, mesh, x + patch.normal * (occlusion.epsilon() * 10), ignore, {}};
+        value[i] = 0;
+        hidden[i] = covered(mesh, occlusion, *closure, sight.from, patch.normal, ignore);
         open[i] = luminance(patch.reflectance) * nearOpenness(sight, patch.normal, kNearRadius * occlusion.sceneSize());
+        if (hidden[i]) continue;
         double d = luminance(directIrradiance(scene.lights, sight, x, patch.normal)) / kPi;
         for (const Emitter& source : emitters) {
           if (source.holds(k) || source.holds(uint32_t(patch.twin))) continue;  // a patch does not light itself
@@ -2163,16 +2168,30 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
         }
         value[i] = luminance(patch.reflectance) * d;
       }
+      // A covered corner (under an object standing on the patch) takes, as its vertex does in the
+      // solve (relocateCovered), the light beside the object: the mean of its uncovered neighbours
+      // on the patch's edges, else the centre's. Covered inner samples miss nothing anyone sees.
+      constexpr int kNeighbours[4][2] = {{5, 8}, {5, 6}, {6, 7}, {7, 8}};
+      for (int c = 0; c < 4; ++c) {
+        if (!hidden[c]) continue;
+        int count = 0;
+        double v = 0;
+        for (int i : kNeighbours[c])
+          if (!hidden[i]) v += value[i], ++count;
+        if (count == 0 && !hidden[4]) v = value[4], count = 1;
+        if (count > 0) value[c] = v / count;
+      }
       // How far the bilinear interpolation of the corner samples misses the inner ones.
-      auto missed = [&](const double* v) {
+      auto missed = [&](const double* v, bool skipHidden) {
         double worst = 0;
         for (int i = 4; i < 9; ++i) {
+          if (skipHidden && hidden[i]) continue;
           const auto n = shapeFunctions(kSample[i][0], kSample[i][1]);
           worst = std::max(worst, std::abs(v[i] - (n[0] * v[0] + n[1] * v[1] + n[2] * v[2] + n[3] * v[3])));
         }
         return worst;
       };
-      const double worst = missed(value), worstNear = missed(open);
+      const double worst = missed(value, true), worstNear = missed(open, false);
       out[w] = {worst, (value[0] + value[1] + value[2] + value[3] + 4 * value[4]) / 8, worstNear};
     }
   });

@@ -177,9 +177,10 @@ function check(args) {
 // (m the midpoint of a and b, both its neighbours, no triangle edge a–b, and triangles of unequal
 // size on either side of a–m and m–b: not a grid line) are listed, and the
 // midpoints of a–m and m–b, in smooth light (every vertex of the triangles on either side within
-// `smooth` code values of the point's expected colour) are written as points to render, each with
-// the colour the file gives it: COLOR_0 interpolated along the edge, as both sides' triangles do.
-function makeEdgePoints(gltfFile, outDir, smooth) {
+// `smooth` code values of the point's expected colour) and at least `margin` (scene units) from
+// every other mesh are written as points to render, each with the colour the file gives it:
+// COLOR_0 interpolated along the edge, as both sides' triangles do.
+function makeEdgePoints(gltfFile, outDir, smooth, margin) {
   const { g, accessor } = readGltf(gltfFile);
   for (const node of g.nodes) {
     if (node.mesh !== undefined && (node.matrix || node.translation || node.rotation || node.scale)) {
@@ -187,9 +188,29 @@ function makeEdgePoints(gltfFile, outDir, smooth) {
     }
   }
   const rows = [];
-  let junctions = 0, refined = 0;
+  let junctions = 0, refined = 0, nearOther = 0;
   const firstJunction = [];
-  for (const mesh of g.meshes) {
+  // Every triangle edge of each mesh, to keep the points clear of the other meshes: a point on the
+  // floor at a block's foot shares its pixel with the block's face, whatever the depth test says.
+  const segmentsOf = g.meshes.map((mesh) => mesh.primitives.flatMap((prim) => {
+    if (prim.indices === undefined) return [];
+    const P = accessor(prim.attributes.POSITION), I = accessor(prim.indices);
+    const out = [];
+    for (let t = 0; t + 2 < I.length; t += 3) for (let e = 0; e < 3; ++e) out.push([P[I[t + e]], P[I[t + (e + 1) % 3]]]);
+    return out;
+  }));
+  const clearance = (x, self) => {
+    let best = Infinity;
+    segmentsOf.forEach((segs, k) => {
+      if (k === self) return;
+      for (const [a, b] of segs) {
+        const ab = sub(b, a), t = Math.min(1, Math.max(0, dot(sub(x, a), ab) / Math.max(dot(ab, ab), 1e-30)));
+        best = Math.min(best, Math.hypot(...sub(x, a.map((v, c) => v + t * ab[c]))));
+      }
+    });
+    return best;
+  };
+  for (const [meshIndex, mesh] of g.meshes.entries()) {
     for (const [pi, prim] of mesh.primitives.entries()) {
       if (prim.indices === undefined || prim.attributes.COLOR_0 === undefined) continue;
       const P = accessor(prim.attributes.POSITION), C = accessor(prim.attributes.COLOR_0), I = accessor(prim.indices);
@@ -240,14 +261,16 @@ function makeEdgePoints(gltfFile, outDir, smooth) {
             const expected = shown(colour);
             const around = [end, m, ...edges.get(ek)].map((i) => shown(colourAt(i)));
             const spread = Math.max(...around.map((c) => Math.max(...c.map((v, k) => Math.abs(v - expected[k])))));
-            if (spread <= smooth) rows.push({ name: `${mesh.name}.${pi}:${end}-${m}`, position, colour, expected });
+            if (spread > smooth) continue;
+            if (clearance(position, meshIndex) < margin) { ++nearOther; continue; }
+            rows.push({ name: `${mesh.name}.${pi}:${end}-${m}`, position, colour, expected });
           }
         }
       }
     }
   }
   process.stdout.write(`edges: ${refined} refined edges (a fan beside a split cell), ${junctions} T-junctions, ` +
-    `${rows.length} points in smooth light\n`);
+    `${rows.length} points in smooth light (${nearOther} more within ${margin} of another mesh left out)\n`);
   if (junctions) fail(`T-junction: ${firstJunction[0]}`);
   if (refined === 0) fail(`${gltfFile} has no refined edge: nothing to check`);
   fs.mkdirSync(outDir, { recursive: true });
@@ -337,8 +360,8 @@ function checkEdges(args) {
 const [command, ...rest] = process.argv.slice(2);
 if (command === 'points' && rest.length === 2) makePoints(rest[0], rest[1]);
 else if (command === 'check') check(rest);
-else if (command === 'edges' && rest.length === 3) makeEdgePoints(rest[0], rest[1], Number(rest[2]));
+else if (command === 'edges' && rest.length === 4) makeEdgePoints(rest[0], rest[1], Number(rest[2]), Number(rest[3]));
 else if (command === 'check-edges') checkEdges(rest);
 else if (command === 'crack' && rest.length === 2) makeCrack(rest[0], rest[1]);
 else fail('usage: cornell_browser.mjs points CORNELL.gltf OUTDIR | check --values V --render R --ev EV --tolerance T --label NAME [--control-ev EV2]' +
-  ' | edges BAKED.gltf OUTDIR SMOOTH | check-edges --points P --render R --tolerance T --dark D --min N --label NAME | crack BAKED.gltf OUT.gltf');
+  ' | edges BAKED.gltf OUTDIR SMOOTH MARGIN | check-edges --points P --render R --tolerance T --dark D --min N --label NAME | crack BAKED.gltf OUT.gltf');

@@ -89,16 +89,17 @@ fi
 # the finer side's midpoint, so it has no T-junction to crack along (cornell_browser.mjs edges
 # counts them: 0, and a copy with one fan re-triangulated around its midpoint must give 1), and the
 # pixels on those edges show the file's colour there (±3 code values: the points lie on triangle
-# edges and in smooth light; a crack would show black, and every point is at least 40 above it).
+# edges, in smooth light and 1 cm or more from the other meshes, whose faces would share their
+# pixels; a crack would show black, and every point is at least 40 above it).
 if run "$radbake" bake "$scene" -o "$tmp/refined.gltf" --subdivide 4 --refine 0.05 --max-patches 3000 \
      --view Standard --exposure "$bake_ev" -q &&
-   node tests/browser/cornell_browser.mjs edges "$tmp/refined.gltf" "$tmp/edges" 3 &&
+   node tests/browser/cornell_browser.mjs edges "$tmp/refined.gltf" "$tmp/edges" 3 0.01 &&
    node tools/render_gltf.mjs "$tmp/refined.gltf" "$tmp/refined.png" --points "$tmp/edges/edges.json" \
      >"$tmp/refined.json" 2>"$tmp/refined.err"; then
   node tests/browser/cornell_browser.mjs check-edges --points "$tmp/edges/edges.json" --render "$tmp/refined.json" \
     --tolerance 3 --dark 40 --min 20 --label "browser_cornell refined edges" || status=1
   if node tests/browser/cornell_browser.mjs crack "$tmp/refined.gltf" "$tmp/cracked.gltf" >/dev/null &&
-     ! node tests/browser/cornell_browser.mjs edges "$tmp/cracked.gltf" "$tmp/cracked" 3 >/dev/null 2>&1; then
+     ! node tests/browser/cornell_browser.mjs edges "$tmp/cracked.gltf" "$tmp/cracked" 3 0.01 >/dev/null 2>&1; then
     echo "browser_cornell refined edges: control: a fan re-triangulated without its midpoint is found as a T-junction"
   else
     echo "browser_cornell refined edges: FAIL: the control's T-junction went unseen"; status=1
