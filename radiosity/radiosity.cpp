@@ -407,14 +407,21 @@ Receivers receivers(const PatchMesh& mesh, double offset) {
   return r;
 }
 
+// Two unit tangents completing n to a right-handed frame (t, b, n), for fixed direction sets
+// around a normal (covered, nearOpenness).
+std::pair<Vec3, Vec3> tangentFrame(const Vec3& n) {
+  const Vec3 helper = std::abs(n.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  const Vec3 t = normalize(cross(n, helper));
+  return {t, cross(n, t)};
+}
+
 // Whether a point of a flat surface is covered: every one of 8 rays into its hemisphere, up to
 // the scene's size, first meets the back of a one-sided patch or the inside of a closed dark
 // object (a double-sided box: the side it meets is the twin facing the ray) — the floor under a
 // block standing on it, one-sided as in the Cornell box or double-sided as Blender exports a cube.
 bool covered(const PatchMesh& mesh, const Occlusion& occlusion, const Closure& closure, const Vec3& from, const Vec3& n,
              std::span<const uint32_t> ignore) {
-  const Vec3 helper = std::abs(n.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-  const Vec3 t = normalize(cross(n, helper)), b = cross(n, t);
+  const auto [t, b] = tangentFrame(n);
   for (int k = 0; k < 8; ++k) {
     const double phi = 2 * kPi * (k + 0.5) / 8, lift = k % 2 ? 0.5 : 0.87;  // two rings
     const Vec3 dir = n * lift + (t * std::cos(phi) + b * std::sin(phi)) * std::sqrt(1 - lift * lift);
@@ -448,11 +455,10 @@ void relocateCovered(const PatchMesh& mesh, const Occlusion& occlusion, const Cl
       Vec3 target;
       for (uint32_t i : r.own(v)) {
         const Patch& patch = mesh.patches[i];
+        const Vec3 centre = pointOnPatch(corners(mesh, patch), 0, 0);
         for (int k = 0; k < 4; ++k) {
           if (!usesCorner(patch, k)) continue;
-          const Vec3 corner = mesh.positions[patch.v[k]];
-          const Vec3 centre = pointOnPatch(corners(mesh, patch), 0, 0);
-          for (const Vec3& toward : {corner, centre}) {
+          for (const Vec3& toward : {mesh.positions[patch.v[k]], centre}) {
             for (int step = 1; step <= 8; ++step) {
               const Vec3 x = mesh.positions[v] + (toward - mesh.positions[v]) * (step / 8.0);
               const double d = length(x - mesh.positions[v]);
@@ -2053,8 +2059,7 @@ struct PatchLight {
 // from a block in its shadow: −37% refined by the direct light alone, −2% at a uniform N = 24).
 constexpr double kNearRadius = 0.05;
 double nearOpenness(const Sight& sight, const Vec3& n, double radius) {
-  const Vec3 helper = std::abs(n.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-  const Vec3 t = normalize(cross(n, helper)), b = cross(n, t);
+  const auto [t, b] = tangentFrame(n);
   std::array<Vec3, 16> to;
   for (int k = 0; k < 16; ++k) {
     // Stratified in (r², φ) on the unit disc, projected up: cosine-distributed (Malley's method).

@@ -1000,7 +1000,7 @@ INSTANTIATE_TEST_SUITE_P(Sides, Contact, ::testing::Bool(),
                          [](const auto& info) { return info.param ? "double_sided" : "one_sided"; });
 
 TEST_P(Contact, TheFloorBesideABoxTakesTheLightOfAFloorSplitAlongItsFootprint) {
-  const double x0 = -0.43, x1 = 0.57, z0 = -0.47, z1 = 0.53;  // on no cell edge at 8 × 8
+  const double x0 = -0.43, x1 = 0.57, z0 = -0.47, z1 = 0.53;  // on no edge of the 0.125 cells
   auto solve = [&](bool split, double maxEdge, bool doubleSided) {
     Scene scene;
     scene.materials = {material("floor", 0.5, 0), material("box", 0.5, 0, doubleSided)};

@@ -34,6 +34,20 @@ void skipIgnored(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+// The ray of the segment from `from` to `to`, both ends left out by `epsilon`; false when the
+// segment is too short to hold anything.
+bool segmentRay(const Vec3& from, const Vec3& to, double epsilon, RTCRay& ray) {
+  const Vec3 d = to - from;
+  const double dist = length(d);
+  if (dist <= 2 * epsilon) return false;
+  ray.org_x = float(from.x); ray.org_y = float(from.y); ray.org_z = float(from.z);
+  ray.dir_x = float(d.x / dist); ray.dir_y = float(d.y / dist); ray.dir_z = float(d.z / dist);
+  ray.tnear = float(epsilon);
+  ray.tfar = float(dist - epsilon);
+  ray.mask = 0xFFFFFFFF;
+  return true;
+}
+
 }  // namespace
 
 struct Occlusion::Impl {
@@ -86,35 +100,21 @@ Occlusion::Occlusion(const PatchMesh& mesh) : impl_(std::make_unique<Impl>()) {
 Occlusion::~Occlusion() = default;
 
 bool Occlusion::visible(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore) const {
-  const Vec3 d = to - from;
-  const double dist = length(d);
-  if (dist <= 2 * epsilon_) return true;
+  RTCRay ray{};
+  if (!segmentRay(from, to, epsilon_, ray)) return true;
   FilterContext fc{{}, ignore, &passes_};
   rtcInitIntersectContext(&fc.context);
   if (!ignore.empty() || passes_) fc.context.filter = skipIgnored;
-  RTCRay ray{};
-  ray.org_x = float(from.x); ray.org_y = float(from.y); ray.org_z = float(from.z);
-  ray.dir_x = float(d.x / dist); ray.dir_y = float(d.y / dist); ray.dir_z = float(d.z / dist);
-  ray.tnear = float(epsilon_);
-  ray.tfar = float(dist - epsilon_);
-  ray.mask = 0xFFFFFFFF;
   rtcOccluded1(impl_->scene, &fc.context, &ray);
   return ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
 }
 
 int64_t Occlusion::firstHit(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore) const {
-  const Vec3 d = to - from;
-  const double dist = length(d);
-  if (dist <= 2 * epsilon_) return -1;
+  RTCRayHit rh{};
+  if (!segmentRay(from, to, epsilon_, rh.ray)) return -1;
   FilterContext fc{{}, ignore, &passes_};
   rtcInitIntersectContext(&fc.context);
   if (!ignore.empty() || passes_) fc.context.filter = skipIgnored;
-  RTCRayHit rh{};
-  rh.ray.org_x = float(from.x); rh.ray.org_y = float(from.y); rh.ray.org_z = float(from.z);
-  rh.ray.dir_x = float(d.x / dist); rh.ray.dir_y = float(d.y / dist); rh.ray.dir_z = float(d.z / dist);
-  rh.ray.tnear = float(epsilon_);
-  rh.ray.tfar = float(dist - epsilon_);
-  rh.ray.mask = 0xFFFFFFFF;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(impl_->scene, &fc.context, &rh);
   return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1 : int64_t(rh.hit.primID);
