@@ -112,16 +112,25 @@ Enclosures findEnclosures(const PatchMesh& mesh) {
     out.walls.push_back(*rooms[r].second);
     for (uint32_t k : *rooms[r].second) out.of[k] = int(r);
   }
+  const std::vector<int> wallOf = out.of;  // per patch: the room whose walls it is, or −1
   // Anything else inside a room (objects in a closed room). A component is tested at the centres
   // of its patches until one is clearly inside or outside: a block standing on the floor has a
   // face lying on it, where the winding number is ½.
   for (const auto* component : others) {
-    const int twin = mesh.patches[component->front()].twin;
+    // The rooms this component is the other side of: a double-sided surface's two sides coincide,
+    // so neither is inside the other. Any patch of the component counts, not only its first: a
+    // double-sided box standing on a floor split along its footprint shares its bottom edges with
+    // the floor under it, so its outside and that floor are one (open) component, and the floor's
+    // patch came first (the box's outside and the floor around it went dark: 25-58% beside it).
+    std::vector<bool> outsideOf(out.walls.size(), false);
+    for (uint32_t k : *component) {
+      const int twin = mesh.patches[k].twin;
+      if (twin >= 0 && wallOf[size_t(twin)] >= 0) outsideOf[size_t(wallOf[size_t(twin)])] = true;
+    }
     const size_t samples = std::min<size_t>(component->size(), 16);
     for (size_t r = 0; r < out.walls.size(); ++r) {
       const auto& walls = out.walls[r];
-      // A double-sided surface's two sides coincide: neither is inside the other.
-      if (twin >= 0 && std::find(walls.begin(), walls.end(), uint32_t(twin)) != walls.end()) continue;
+      if (outsideOf[r]) continue;
       bool inside = false, decided = false;
       for (size_t t = 0; t < samples && !decided; ++t) {
         const Patch& p = mesh.patches[(*component)[t * component->size() / samples]];
