@@ -1049,4 +1049,53 @@ TEST_P(Contact, TheFloorBesideABoxTakesTheLightOfAFloorSplitAlongItsFootprint) {
       }
 }
 
+// A floor vertex within rounding of the foot of a box's wall (Blender writes single precision: a
+// cube on a grid meets it 1.2e-7 apart) takes the light of one exactly at it, from the side in
+// front of the wall. The floor is either split along the foot (two quads, x = 1 + off) or one quad
+// whose cells straddle it (shifted by off, so a row of its vertices lies there); the reference is
+// the split floor's outer vertices with off = 0, compared in the mean along the foot. Before: split, 10% too dark at 1.2e-7 outside and the whole sky (20%
+// too bright) 1e-6 inside; straddling, 40% too dark (the wall's light lost).
+TEST(Contact, AVertexWithinRoundingOfAWallFootGathersAsOneOnIt) {
+  // The mean radiance of the floor's upward vertices within 1e-9 of x = 1 + off, |z| <= 0.6, of
+  // the outer (or only) floor quad.
+  auto solve = [](double off, bool split, bool doubleSided) {
+    Scene scene;
+    scene.materials = {material("floor", 0.8, 0, true), material("box", 0.8, 0, doubleSided)};
+    // One quad 4 × 3 has a rate of 20 (its diagonal): a row of its vertices at its middle.
+    const std::vector<double> xs = split ? std::vector<double>{-1, 1 + off, 3} : std::vector<double>{-1 + off, 3 + off};
+    for (size_t i = 0; i + 1 < xs.size(); ++i)
+      scene.primitives.push_back(quadPrimitive({Vec3{xs[i], 0, -1.5}, {xs[i], 0, 1.5}, {xs[i + 1], 0, 1.5}, {xs[i + 1], 0, -1.5}}, 0));
+    scene.primitives.push_back(boxPrimitive({-1, 0, -0.93}, {1, 2, 1.07}, false, 1));  // no vertex shared with the floor
+    for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+    TessellateOptions t;
+    t.maxEdgeLength = 0.25;
+    Baked b;
+    b.mesh = tessellate(scene, t);
+    RadiosityOptions o;
+    o.transport = TransportMode::kExact;
+    o.sky = {1, 1, 1};
+    b.solution = solveRadiosity(scene, b.mesh, o);
+    std::map<uint32_t, double> line;
+    for (const Patch& patch : b.mesh.patches)
+      for (const uint32_t v : patch.v) {
+        const Vec3& p = b.mesh.positions[v];
+        if (patch.primitive == int(xs.size()) - 2 && !patch.backSide && std::abs(p.x - 1 - off) < 1e-9 && std::abs(p.z) <= 0.6)
+          line[v] = b.solution.vertexRadiance[v].x;
+      }
+    double sum = 0;
+    for (const auto& [v, value] : line) sum += value;
+    EXPECT_GE(line.size(), 3u) << (split ? "split" : "straddling") << " floor, " << off;
+    return sum / double(std::max<size_t>(1, line.size()));
+  };
+  for (const bool doubleSided : {false, true}) {
+    const double exact = solve(0, true, doubleSided);
+    for (const bool split : {true, false})
+      for (const double off : {-1e-6, -1.2e-7, 1.2e-7, 1e-6}) {
+        const double near = solve(off, split, doubleSided);
+        EXPECT_NEAR(near / exact, 1, 0.02) << (split ? "split" : "straddling") << " floor, vertices " << off
+                                           << " beside the wall: " << near << " against " << exact;
+      }
+  }
+}
+
 }  // namespace

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <vector>
 
 #include "tessellate/tessellate.h"
 
@@ -40,6 +41,9 @@ class Occlusion {
   // The patch whose surface the segment from `from` to `to` meets first (strictly between, as in
   // visible(); ignored and cut-out patches stepped over), or -1.
   int64_t firstHit(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore = {}) const;
+  // The patches whose bounds come within `radius` of `p` (appended to `out`; a superset of those
+  // within that distance: the caller measures them).
+  void patchesNear(const Vec3& p, double radius, std::vector<uint32_t>& out) const;
   // Cut-out patches (alpha MASK): `passes(patch, u, v)` says whether light goes through `patch` at
   // Embree's quad coordinates (v0 = (0,0), v1 = (1,0), v2 = (1,1), v3 = (0,1); split v0 v1 v3 /
   // v2 v3 v1). Set before any query; only patches with a mask are asked.
