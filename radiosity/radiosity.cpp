@@ -2086,7 +2086,7 @@ bool passesCutout(const Scene& scene, const PatchMesh& mesh, uint32_t patch, dou
 
 // What refinement measures of a patch: how far the bilinear interpolation of the direct light
 // (emitting patches: exact factors, visibility in pieces of a tenth of the transport's; punctual
-// lights, shadowed; not the sky) between points just inside its corners misses it at its centre
+// lights, shadowed; a uniform sky, skyOpenness) between points just inside its corners misses it at its centre
 // and edge midpoints (the largest, times ρ, channels averaged), and the light's mean over it.
 // Visibility at the transport's piece size left the measure's own estimation error (a few per
 // cent) above a 1% target forever.
@@ -2102,19 +2102,27 @@ struct PatchLight {
 // has no direct light on either side, and only this sees it (Cornell box, floor points 1.3 cm
 // from a block in its shadow: −37% refined by the direct light alone, −2% at a uniform N = 24).
 constexpr double kNearRadius = 0.05;
-double nearOpenness(const Sight& sight, const Vec3& n, double radius) {
+// The share of S × S fixed, cosine-distributed directions that leave `radius` without hitting
+// anything: stratified in (r², φ) on the unit disc, projected up (Malley's method).
+template <int S>
+double openness(const Sight& sight, const Vec3& n, double radius) {
   const auto [t, b] = tangentFrame(n);
-  std::array<Vec3, 16> to;
-  for (int k = 0; k < 16; ++k) {
-    // Stratified in (r², φ) on the unit disc, projected up: cosine-distributed (Malley's method).
-    const double u = (k / 4 + 0.5) / 4, phi = 2 * kPi * ((k % 4) + 0.5 * (k / 4 % 2) + 0.25) / 4;
+  constexpr int kRays = S * S;
+  std::array<Vec3, kRays> to;
+  for (int k = 0; k < kRays; ++k) {
+    const double u = (k / S + 0.5) / S, phi = 2 * kPi * ((k % S) + 0.5 * (k / S % 2) + 0.25) / S;
     const double r = std::sqrt(u), h = std::sqrt(std::max(0.0, 1 - u));
     to[k] = sight.from + (t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * h) * radius;
   }
-  bool seen[16];
-  sight.visibleAll(to, seen);
-  return double(std::count(seen, seen + 16, true)) / 16;
+  int through = 0;
+  for (int first = 0; first < kRays; first += 16) {  // visibleAll takes up to 16
+    bool seen[16];
+    sight.visibleAll(std::span(to.data() + first, 16), seen);
+    through += int(std::count(seen, seen + 16, true));
+  }
+  return double(through) / kRays;
 }
+double nearOpenness(const Sight& sight, const Vec3& n, double radius) { return openness<4>(sight, n, radius); }
 
 // An emitting polygon as the measure sees it: a whole uniformly emitting face (its n × n grid of
 // level-0 cells, one polygon: a Cornell box light at --subdivide 8 is one source instead of 64, and
@@ -2175,10 +2183,16 @@ std::vector<Emitter> measuredEmitters(const PatchMesh& mesh) {
   return out;
 }
 
-std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& mesh, const std::vector<uint32_t>& which) {
+// The sky's direct light at a point, as the measure sees it: the sky's luminance times the share
+// of 64 cosine-distributed directions that leave the scene (a step of 1/64 between neighbouring
+// samples stays below a 2% target on a floor that sees most of the sky; 16 directions' 1/16 did not).
+double skyOpenness(const Sight& sight, const Vec3& n) { return openness<8>(sight, n, 2 * sight.occlusion.sceneSize()); }
+
+std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& mesh, const std::vector<uint32_t>& which,
+                                           double sky) {
   std::vector<PatchLight> out(which.size());
   const std::vector<Emitter> emitters = measuredEmitters(mesh);
-  if ((emitters.empty() && scene.lights.empty()) || which.empty()) return out;
+  if ((emitters.empty() && scene.lights.empty() && !(sky > 0)) || which.empty()) return out;
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
   const auto closure = makeClosure(scene, mesh, Method::kBilinear);
@@ -2206,6 +2220,7 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
         open[i] = luminance(patch.reflectance) * nearOpenness(sight, patch.normal, kNearRadius * occlusion.sceneSize());
         if (hidden[i]) continue;
         double d = luminance(directIrradiance(scene.lights, sight, x, patch.normal)) / kPi;
+        if (sky > 0) d += sky * skyOpenness(sight, patch.normal);
         for (const Emitter& source : emitters) {
           if (source.holds(k) || source.holds(uint32_t(patch.twin))) continue;  // a patch does not light itself
           const auto& qe = source.q;
@@ -2267,7 +2282,8 @@ PatchKey patchKey(const PatchMesh& mesh, const Patch& patch) {
 
 // A split makes three more patches, more where fans and balance follow, so a round takes at most a
 // quarter of what is left of the budget in cells.
-Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches) {
+Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches,
+                      const Vec3& sky) {
   Refinement summary;
   summary.maxPatches = maxPatches > 0 ? maxPatches : std::max<size_t>(20000, 4 * mesh.patches.size());
   constexpr int kMaxRounds = 4 * kMaxRefineLevel;
@@ -2285,7 +2301,7 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
       keys[k] = patchKey(mesh, mesh.patches[k]);
       if (!known.count(keys[k])) fresh.push_back(uint32_t(k));
     }
-    const std::vector<PatchLight> measured = measureDirectLight(scene, mesh, fresh);
+    const std::vector<PatchLight> measured = measureDirectLight(scene, mesh, fresh, luminance(sky));
     for (size_t w = 0; w < fresh.size(); ++w) known[keys[fresh[w]]] = measured[w];
     double sum = 0, area = 0;
     for (size_t k = 0; k < mesh.patches.size(); ++k) {

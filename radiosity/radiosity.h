@@ -87,9 +87,9 @@ struct TransportMemoryExceeded : std::runtime_error {
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options = {});
 
 // Adaptive refinement: each round measures the patches it has not seen (how far the bilinear
-// interpolation of the direct light from emitting patches and punctual lights, not the sky, misses
-// it at a patch's centre and edge midpoints, times ρ, relative to the scene's area-weighted mean of
-// that light) and splits the cells of those above `target`, most squared error over area first,
+// interpolation of the direct light from emitting patches, punctual lights and a uniform `sky`
+// (RadiosityOptions::sky) misses it at a patch's centre and edge midpoints, times ρ, relative to
+// the scene's area-weighted mean of that light) and splits the cells of those above `target`, most squared error over area first,
 // while the budget lasts (`maxPatches`; 0: 4× the starting patches, at least 20,000); tessellate
 // balances and closes the splits. `mesh` is replaced by the refined one and `options.split` holds
 // its cells.
@@ -100,7 +100,8 @@ struct Refinement {
   double worst = 0;          // the largest error left on cells that can still be split
   bool budgetReached = false;  // stopped with cells above the target
 };
-Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches);
+Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches,
+                      const Vec3& sky = {});
 
 // The solved radiance at the surface point nearest to `point` among patches whose normal faces
 // `normal` (dot > 0): bilinear inside a patch for the bilinear method, the patch value for the

@@ -289,7 +289,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   Refinement refined;
   if (options.refine) {
     progress.stage("refine");
-    refined = refineMesh(scene, tessellateOptions, mesh, *options.refine, options.maxPatches);
+    refined = refineMesh(scene, tessellateOptions, mesh, *options.refine, options.maxPatches, options.sky ? parseSky(*options.sky) : Vec3{});
     if (refined.budgetReached)
       scene.warnings.push_back(std::filesystem::path(options.input).filename().string() + ": --refine stopped at the patch budget (" +
                                std::to_string(mesh.patches.size()) + " patches) with patches still above its target: raise --max-patches");
