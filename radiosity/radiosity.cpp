@@ -2093,6 +2093,7 @@ bool passesCutout(const Scene& scene, const PatchMesh& mesh, uint32_t patch, dou
 struct PatchLight {
   double error = 0, level = 0;
   double nearError = 0;  // the same for the open share of the near hemisphere (nearOpenness), times ρ
+  bool dark = false;     // inside a dark room (the inside of a closed double-sided object): never lit
 };
 
 // The indirect light a point takes is lowest where nearby surfaces close its hemisphere: at a
@@ -2205,6 +2206,13 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
   tbb::parallel_for(tbb::blocked_range<size_t>(0, which.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t w = range.begin(); w != range.end(); ++w) {
       const uint32_t k = which[w];
+      // The solve leaves a dark room black; its walls' rays near a seam with another surface (a
+      // cube's bottom on a floor) gave a few per cent of light there, and under a sky, refinement
+      // spent its budget inside Blender's double-sided cubes.
+      if (closure->darkPatches[k]) {
+        out[w].dark = true;
+        continue;
+      }
       const Patch& patch = mesh.patches[k];
       const auto q = corners(mesh, patch);
       const uint32_t self[2] = {k, uint32_t(patch.twin)};
@@ -2305,6 +2313,7 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
     for (size_t w = 0; w < fresh.size(); ++w) known[keys[fresh[w]]] = measured[w];
     double sum = 0, area = 0;
     for (size_t k = 0; k < mesh.patches.size(); ++k) {
+      if (known[keys[k]].dark) continue;
       sum += known[keys[k]].level * mesh.patches[k].area;
       area += mesh.patches[k].area;
     }
@@ -2317,7 +2326,7 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
     summary.worst = 0;
     for (size_t k = 0; k < mesh.patches.size(); ++k) {
       const Cell& cell = mesh.patches[k].cell;
-      if (cell.primitive < 0 || cell.level >= kMaxRefineLevel || !(mean > 0)) continue;
+      if (cell.primitive < 0 || cell.level >= kMaxRefineLevel || !(mean > 0) || known[keys[k]].dark) continue;
       // The near hemisphere's share stands for the indirect light, at the scale of the mean direct light.
       const double e = known[keys[k]].error / mean + known[keys[k]].nearError;
       summary.worst = std::max(summary.worst, e);

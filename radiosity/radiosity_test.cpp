@@ -960,45 +960,52 @@ TEST(Refinement, AContactInShadowIsRefinedByTheNearHemisphere) {
 }
 
 // Under a sky alone (no emitter, no lamp: an ambient-occlusion bake) refinement measures the sky's
-// light: a box on a one-quad floor. The floor 2, 5 and 10 cm beside the box against the same floor
+// light: a box (one- and double-sided) on a one-quad floor. The floor 2, 5 and 10 cm beside the box against the same floor
 // split along the footprint at cells of 0.125 (exact transport). Measured: within 1.1%; before,
 // refinement saw no light, made no round and left the floor one quad (0.80 everywhere, 17% off).
 TEST(Refinement, SkyLightIsMeasuredToo) {
-  const double x0 = -0.43, x1 = 0.57, z0 = -0.47, z1 = 0.53;
-  auto scene = [&](bool split) {
-    Scene s;
-    s.materials = {material("floor", 0.8, 0), material("box", 0.8, 0)};
-    const double xs[4] = {-2, x0, x1, 2}, zs[4] = {-2, z0, z1, 2};
-    if (split) {
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          s.primitives.push_back(quadPrimitive({Vec3{xs[i], 0, zs[j]}, {xs[i], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j]}}, 0));
-    } else {
-      s.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
-    }
-    s.primitives.push_back(boxPrimitive({x0, 0, z0}, {x1, 1, z1}, false, 1));
-    for (size_t p = 0; p < s.primitives.size(); ++p) s.primitives[p].primitive = int(p);
-    return s;
-  };
-  RadiosityOptions o;
-  o.sky = {1, 1, 1};
-  const Scene coarse = scene(false), fine = scene(true);
-  TessellateOptions t;
-  PatchMesh mesh = tessellate(coarse, t);
-  const Refinement r = refineMesh(coarse, t, mesh, 0.02, 3000, o.sky);
-  EXPECT_GT(r.rounds, 2);
-  const Solution refined = solveRadiosity(coarse, mesh, o);
-  TessellateOptions u;
-  u.maxEdgeLength = 0.125;
-  const PatchMesh reference = tessellate(fine, u);
-  o.transport = TransportMode::kExact;
-  const Solution exact = solveRadiosity(fine, reference, o);
-  for (const double gap : {0.02, 0.05, 0.1})
-    for (const Vec3& x : {Vec3{x0 - gap, 0, 0.1}, Vec3{x1 + gap, 0, 0.1}, Vec3{0.1, 0, z0 - gap}}) {
-      const Vec3 a = evaluateRadiance(refined, mesh, x, {0, 1, 0});
-      const Vec3 b = evaluateRadiance(exact, reference, x, {0, 1, 0});
-      EXPECT_NEAR(a.x / b.x, 1, 0.04) << "floor at (" << x.x << ", " << x.z << "): " << a.x << " against " << b.x;
-    }
+  double oneSidedWorst = 0;
+  for (const bool doubleSided : {false, true}) {
+    const double x0 = -0.43, x1 = 0.57, z0 = -0.47, z1 = 0.53;
+    auto scene = [&](bool split) {
+      Scene s;
+      s.materials = {material("floor", 0.8, 0), material("box", 0.8, 0, doubleSided)};
+      const double xs[4] = {-2, x0, x1, 2}, zs[4] = {-2, z0, z1, 2};
+      if (split) {
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            s.primitives.push_back(quadPrimitive({Vec3{xs[i], 0, zs[j]}, {xs[i], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j]}}, 0));
+      } else {
+        s.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
+      }
+      s.primitives.push_back(boxPrimitive({x0, 0, z0}, {x1, 1, z1}, false, 1));
+      for (size_t p = 0; p < s.primitives.size(); ++p) s.primitives[p].primitive = int(p);
+      return s;
+    };
+    RadiosityOptions o;
+    o.sky = {1, 1, 1};
+    const Scene coarse = scene(false), fine = scene(true);
+    TessellateOptions t;
+    PatchMesh mesh = tessellate(coarse, t);
+    const Refinement r = refineMesh(coarse, t, mesh, 0.02, 3000, o.sky);
+    EXPECT_GT(r.rounds, 2);
+    // The inside of the double-sided box is a dark room, black in the solve: not measured (its
+    // walls' rays near the seam with the floor saw light, and the worst error left was 0.61, not 0.30).
+    if (doubleSided) EXPECT_LT(r.worst, oneSidedWorst + 0.05);
+    oneSidedWorst = r.worst;
+    const Solution refined = solveRadiosity(coarse, mesh, o);
+    TessellateOptions u;
+    u.maxEdgeLength = 0.125;
+    const PatchMesh reference = tessellate(fine, u);
+    o.transport = TransportMode::kExact;
+    const Solution exact = solveRadiosity(fine, reference, o);
+    for (const double gap : {0.02, 0.05, 0.1})
+      for (const Vec3& x : {Vec3{x0 - gap, 0, 0.1}, Vec3{x1 + gap, 0, 0.1}, Vec3{0.1, 0, z0 - gap}}) {
+        const Vec3 a = evaluateRadiance(refined, mesh, x, {0, 1, 0});
+        const Vec3 b = evaluateRadiance(exact, reference, x, {0, 1, 0});
+        EXPECT_NEAR(a.x / b.x, 1, 0.03) << "floor at (" << x.x << ", " << x.z << "): " << a.x << " against " << b.x;
+      }
+  }
 }
 
 // A unit room (ρ 0.5, its faces with their own vertices as Blender exports a cube) lit by a
