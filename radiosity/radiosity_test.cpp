@@ -959,6 +959,25 @@ TEST(Refinement, AContactInShadowIsRefinedByTheNearHemisphere) {
   EXPECT_GT(straddling, 0);
 }
 
+// A 1 × 1 × 1 box standing on a 4 × 4 floor of reflectance rho (the floor one quad, or nine quads
+// split along the box's footprint), the footprint on no edge of the floor's dyadic cells.
+constexpr double kBoxX0 = -0.43, kBoxX1 = 0.57, kBoxZ0 = -0.47, kBoxZ1 = 0.53;
+Scene boxOnFloor(double rho, bool split, bool doubleSided) {
+  Scene scene;
+  scene.materials = {material("floor", rho, 0), material("box", rho, 0, doubleSided)};
+  const double xs[4] = {-2, kBoxX0, kBoxX1, 2}, zs[4] = {-2, kBoxZ0, kBoxZ1, 2};
+  if (split) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        scene.primitives.push_back(quadPrimitive({Vec3{xs[i], 0, zs[j]}, {xs[i], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j]}}, 0));
+  } else {
+    scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
+  }
+  scene.primitives.push_back(boxPrimitive({kBoxX0, 0, kBoxZ0}, {kBoxX1, 1, kBoxZ1}, false, 1));
+  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+  return scene;
+}
+
 // Under a sky alone (no emitter, no lamp: an ambient-occlusion bake) refinement measures the sky's
 // light: a box (one- and double-sided) on a one-quad floor. The floor 2, 5 and 10 cm beside the box against the same floor
 // split along the footprint at cells of 0.125 (exact transport). Measured: within 1.1%; before,
@@ -966,22 +985,8 @@ TEST(Refinement, AContactInShadowIsRefinedByTheNearHemisphere) {
 TEST(Refinement, SkyLightIsMeasuredToo) {
   double oneSidedWorst = 0;
   for (const bool doubleSided : {false, true}) {
-    const double x0 = -0.43, x1 = 0.57, z0 = -0.47, z1 = 0.53;
-    auto scene = [&](bool split) {
-      Scene s;
-      s.materials = {material("floor", 0.8, 0), material("box", 0.8, 0, doubleSided)};
-      const double xs[4] = {-2, x0, x1, 2}, zs[4] = {-2, z0, z1, 2};
-      if (split) {
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            s.primitives.push_back(quadPrimitive({Vec3{xs[i], 0, zs[j]}, {xs[i], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j]}}, 0));
-      } else {
-        s.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
-      }
-      s.primitives.push_back(boxPrimitive({x0, 0, z0}, {x1, 1, z1}, false, 1));
-      for (size_t p = 0; p < s.primitives.size(); ++p) s.primitives[p].primitive = int(p);
-      return s;
-    };
+    const double x0 = kBoxX0, x1 = kBoxX1, z0 = kBoxZ0;
+    auto scene = [&](bool split) { return boxOnFloor(0.8, split, doubleSided); };
     RadiosityOptions o;
     o.sky = {1, 1, 1};
     const Scene coarse = scene(false), fine = scene(true);
@@ -991,7 +996,9 @@ TEST(Refinement, SkyLightIsMeasuredToo) {
     EXPECT_GT(r.rounds, 2);
     // The inside of the double-sided box is a dark room, black in the solve: not measured (its
     // walls' rays near the seam with the floor saw light, and the worst error left was 0.61, not 0.30).
-    if (doubleSided) EXPECT_LT(r.worst, oneSidedWorst + 0.05);
+    if (doubleSided) {
+      EXPECT_LT(r.worst, oneSidedWorst + 0.05);
+    }
     oneSidedWorst = r.worst;
     const Solution refined = solveRadiosity(coarse, mesh, o);
     TessellateOptions u;
@@ -1049,20 +1056,9 @@ INSTANTIATE_TEST_SUITE_P(Sides, Contact, ::testing::Bool(),
                          [](const auto& info) { return info.param ? "double_sided" : "one_sided"; });
 
 TEST_P(Contact, TheFloorBesideABoxTakesTheLightOfAFloorSplitAlongItsFootprint) {
-  const double x0 = -0.43, x1 = 0.57, z0 = -0.47, z1 = 0.53;  // on no edge of the 0.125 cells
+  const double x0 = kBoxX0, x1 = kBoxX1, z0 = kBoxZ0;  // on no edge of the 0.125 cells
   auto solve = [&](bool split, double maxEdge, bool doubleSided) {
-    Scene scene;
-    scene.materials = {material("floor", 0.5, 0), material("box", 0.5, 0, doubleSided)};
-    const double xs[4] = {-2, x0, x1, 2}, zs[4] = {-2, z0, z1, 2};
-    if (split) {
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          scene.primitives.push_back(quadPrimitive({Vec3{xs[i], 0, zs[j]}, {xs[i], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j + 1]}, {xs[i + 1], 0, zs[j]}}, 0));
-    } else {
-      scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
-    }
-    scene.primitives.push_back(boxPrimitive({x0, 0, z0}, {x1, 1, z1}, false, 1));
-    for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+    const Scene scene = boxOnFloor(0.5, split, doubleSided);
     TessellateOptions t;
     t.subdivide = 1;
     t.maxEdgeLength = maxEdge;
