@@ -978,6 +978,17 @@ Scene boxOnFloor(double rho, bool split, bool doubleSided) {
   return scene;
 }
 
+// The exact transport's bake of `scene` under a uniform sky of 1.
+Baked exactUnderSky(const Scene& scene, const TessellateOptions& t) {
+  Baked b;
+  b.mesh = tessellate(scene, t);
+  RadiosityOptions o;
+  o.transport = TransportMode::kExact;
+  o.sky = {1, 1, 1};
+  b.solution = solveRadiosity(scene, b.mesh, o);
+  return b;
+}
+
 // Under a sky alone (no emitter, no lamp: an ambient-occlusion bake) refinement measures the sky's
 // light: a box (one- and double-sided) on a one-quad floor. The floor 2, 5 and 10 cm beside the box against the same floor
 // split along the footprint at cells of 0.125 (exact transport). Measured: within 1.1%; before,
@@ -1062,13 +1073,7 @@ TEST_P(Contact, TheFloorBesideABoxTakesTheLightOfAFloorSplitAlongItsFootprint) {
     TessellateOptions t;
     t.subdivide = 1;
     t.maxEdgeLength = maxEdge;
-    Baked b;
-    b.mesh = tessellate(scene, t);
-    RadiosityOptions o;
-    o.transport = TransportMode::kExact;
-    o.sky = {1, 1, 1};
-    b.solution = solveRadiosity(scene, b.mesh, o);
-    return b;
+    return exactUnderSky(scene, t);
   };
   const Baked coarse = solve(false, 0.125, GetParam()), reference = solve(true, 0.125, GetParam());
   EXPECT_GT(coarse.solution.contactUnknowns, 0u);
@@ -1114,12 +1119,7 @@ TEST(Contact, AVertexWithinRoundingOfAWallFootGathersAsOneOnIt) {
     for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
     TessellateOptions t;
     t.maxEdgeLength = 0.25;
-    Baked b;
-    b.mesh = tessellate(scene, t);
-    RadiosityOptions o;
-    o.transport = TransportMode::kExact;
-    o.sky = {1, 1, 1};
-    b.solution = solveRadiosity(scene, b.mesh, o);
+    const Baked b = exactUnderSky(scene, t);
     std::map<uint32_t, double> line;
     for (const Patch& patch : b.mesh.patches)
       for (const uint32_t v : patch.v) {
