@@ -408,27 +408,27 @@ Receivers receivers(const PatchMesh& mesh, double offset) {
 }
 
 // Surfaces that touch within rounding (a floor vertex a float ulp beside the foot of a wall standing
-// on it, as Blender's single-precision coordinates leave them): a vertex closer than `tolerance` to
-// a patch not its own gathers from the nearest point on that patch instead, where the kernels
-// take their exact contact limits. A millionth of the scene away, they were taken as a regular
+// on it, as Blender's single-precision coordinates leave them): a vertex closer than the rays'
+// `offset` to a patch not its own gathers from the nearest point on that patch instead, where the
+// kernels take their exact contact limits. A millionth of the scene away, they were taken as a regular
 // kernel a hair off the singular line and as rays that start past the wall: a floor vertex
 // 1.2e-7 beside a box's wall gathered 10% too little of it, one 1e-6 inside the box the whole sky.
-void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers& r, double tolerance, double offset) {
+void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers& r, double offset) {
   tbb::parallel_for(tbb::blocked_range<size_t>(0, r.point.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint32_t> near;
     for (size_t v = range.begin(); v != range.end(); ++v) {
       if (r.ownCount[v] == 0) continue;
       near.clear();
-      occlusion.patchesNear(r.point[v], tolerance, near);
+      occlusion.patchesNear(r.point[v], offset, near);
       const auto ignored = r.ignored(v);
-      double best = tolerance;
+      double best = offset;
       Vec3 target, across{};
       for (uint32_t c : near) {
         if (std::find(ignored.begin(), ignored.end(), c) != ignored.end()) continue;
         const Patch& patch = mesh.patches[c];
         const auto q = corners(mesh, patch);
         const QuadPoint np = nearestQuadPoint(q, r.point[v]);
-        if (!(np.distance <= tolerance)) continue;
+        if (!(np.distance <= offset)) continue;
         // A surface standing on the vertex's own (a wall on a floor): its front, along the floor.
         if (!patch.backSide) across += patch.normal - r.normal[v] * dot(r.normal[v], patch.normal);
         if (np.distance > 0 && np.distance <= best) {
@@ -444,7 +444,7 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
         r.origin[v] += (approach - r.approach[v]) * offset;
         r.approach[v] = approach;
       }
-      if (best == tolerance) continue;
+      if (best == offset) continue;
       r.origin[v] += target - r.point[v];
       r.point[v] = target;
     }
@@ -2380,7 +2380,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   const auto recv = std::make_shared<const Receivers>([&] {
     if (!bilinear) return patchReceivers(mesh, offset);
     Receivers r = receivers(mesh, offset);
-    snapToTouching(mesh, occlusion, r, offset, offset);
+    snapToTouching(mesh, occlusion, r, offset);
     relocateCovered(mesh, occlusion, *closure, r, offset);
     return r;
   }());
