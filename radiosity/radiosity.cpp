@@ -118,6 +118,9 @@ struct Hierarchical {
   std::vector<Vec3> normal;                         // receiving normal per vertex
   size_t rays = 0;      // the walk's cluster rays
   size_t nearRays = 0;  // the (vertex, patch) pairs' rays
+  // Per receiver task, the pairs the first walk called hidden without the rays their factor asks
+  // for (WalkSetup::deferredHidden); refineByLight takes them up, by their light.
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> deferredHidden;
   double worstError = 0;  // the largest Σ of link error estimates over one vertex's links
   size_t bytes() const {
     return near.size() * sizeof(near[0]) + nearEntries * sizeof(near[0][0]) + links.size() * sizeof(links[0]) +
@@ -1100,6 +1103,10 @@ struct WalkSetup {
   const std::vector<double>* weight = nullptr;
   const std::vector<double>* lightSum = nullptr;
   const std::vector<std::vector<std::pair<uint32_t, uint32_t>>>* starts = nullptr;
+  // The transport's first walk: per task, the pairs called hidden by their link rays whose factor
+  // would ask for more (kHiddenRays) are listed here instead of traced; refineByLight traces them
+  // where their source's light asks for it.
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>>* deferredHidden = nullptr;
 };
 
 // A link's factor and the error estimate of its centroid expansions (walkPairs), with the source's
@@ -1387,9 +1394,13 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // asks for them (kHiddenRays); one getting through makes it partly seen (count is at
             // least kClusterRays, so seen = 1 is not a link).
             const uint32_t hiddenRays = std::min(kHiddenRays, uint32_t(std::ceil(factor / kHiddenFactorPerRay)));
-            if (seen == 0 && asked == count && hiddenRays > perReceiver &&
-                trace(g.count * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0)
-              seen = 1;
+            if (seen == 0 && asked == count && hiddenRays > perReceiver) {
+              if (w.deferredHidden) {
+                (*w.deferredHidden)[task].push_back({gi, ci});
+                kept += sizeof(std::pair<uint32_t, uint32_t>);
+              }
+              else if (trace(g.count * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) seen = 1;
+            }
             if (seen == 0 && asked == count) continue;
             sawLight = seen > 0;
             if (seen == count && asked == count) {
@@ -1651,7 +1662,10 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   h.near.resize(nv);
   MemoryBudget memory;
   memory.limit = options.transportMemoryBytes;
-  walkInto(h, {mesh, occlusion, recv, h.groups, h.source, all, false, options.accuracy, memory}, nearPair, ticker);
+  h.deferredHidden.resize(h.groups.tasks.size());
+  WalkSetup setup{mesh, occlusion, recv, h.groups, h.source, all, false, options.accuracy, memory};
+  setup.deferredHidden = &h.deferredHidden;
+  walkInto(h, setup, nearPair, ticker);
   closeRows(h, recv, closure);
   return h;
 }
@@ -1662,8 +1676,10 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
 // is than the scene's (at least 1), and every link whose criteria fail with its factor so weighted
 // (the error estimate, the rays per receiver, a faint partly hidden link's faintness) is removed
 // and walked again from its pair with the weights, every other ray of a link going to a patch drawn
-// by its light. Near pairs and dropped (hidden) pairs are kept as they are. Returns the links
-// walked again; the rows are closed again by the caller.
+// by its light. So are the pairs the first walk called hidden without their extra rays
+// (Hierarchical::deferredHidden), where the source's brightness asks for them. Near pairs and the
+// other hidden pairs are kept as they are. Returns the links walked again; the rows are closed
+// again by the caller.
 size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
                      const Receivers& recv, const NearPair& nearPair, const std::vector<Vec3>& L, Ticker& ticker) {
   const ClusterTree &S = h.source, &R = h.groups.tree;
@@ -1683,13 +1699,12 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
   for (size_t k = 0; k < S.order.size(); ++k) lightSum[k + 1] = lightSum[k] + std::max(0.0, light[S.order[k]]);
   const double mean = lightSum.back() / S.nodes[0].area;
   if (!(mean > 0)) return 0;
-  for (size_t k = 0; k < S.nodes.size(); ++k) {
-    const TreeNode& c = S.nodes[k];
-    weight[k] = std::max(1.0, (lightSum[c.first + c.count] - lightSum[c.first]) / c.area / mean);
-  }
+  auto brightness = [&](const TreeNode& c) { return (lightSum[c.first + c.count] - lightSum[c.first]) / c.area / mean; };
+  for (size_t k = 0; k < S.nodes.size(); ++k) weight[k] = std::max(1.0, brightness(S.nodes[k]));
   // The links to walk again, per task (tasks own disjoint receiver subtrees).
   const auto& tasks = h.groups.tasks;
   std::vector<std::vector<std::pair<uint32_t, uint32_t>>> starts(tasks.size());
+  std::vector<size_t> hiddenAgain(tasks.size(), 0);  // of them, pairs once called hidden
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tasks.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t task = range.begin(); task != range.end(); ++task)
       for (std::vector<uint32_t> stack{tasks[task]}; !stack.empty();) {
@@ -1715,10 +1730,26 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
         }), list.end());
         if (list.size() != before) list.shrink_to_fit();
       }
+    // The pairs the first walk called hidden on their link rays alone: walked again where the
+    // extra rays their factor asks for (kHiddenRays) are asked by it times their source's
+    // brightness. A wrong hidden verdict loses about the factor over the rays of the source's
+    // light; tracing them all in the first walk spent two thirds of the hidden verdicts' rays in
+    // the Blender room, nearly all on the dark insides of its open, double-sided Suzannes.
+    for (size_t task = range.begin(); task != range.end(); ++task)
+      for (const auto& [gi, ci] : h.deferredHidden[task]) {
+        const TreeNode &g = R.nodes[gi], &c = S.nodes[ci];
+        const double factor = linkEstimate(g, c, 1).factor * brightness(c);
+        if (std::min(kHiddenRays, uint32_t(std::ceil(factor / kHiddenFactorPerRay))) > raysPerReceiver(g.count, factor))
+          starts[task].push_back({gi, ci}), ++hiddenAgain[task];
+      }
   });
-  size_t redone = 0;
-  for (const auto& list : starts) redone += list.size();
-  if (redone == 0) return 0;
+  h.deferredHidden.clear();
+  size_t walks = 0, redone = 0;  // pairs walked again, of them links
+  for (size_t task = 0; task < tasks.size(); ++task) {
+    walks += starts[task].size();
+    redone += starts[task].size() - hiddenAgain[task];
+  }
+  if (walks == 0) return 0;
   std::vector<uint32_t> all(np);
   for (size_t p = 0; p < np; ++p) all[p] = uint32_t(p);
   MemoryBudget memory;
@@ -2432,7 +2463,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
               kRefineProgress[1], L, gathered, solution);
       Ticker refineTicker(options.progress, n, kRefineProgress[1], kRefineProgress[2]);
       solution.refinedLinks = refineByLight(H, mesh, occlusion, options, *recv, nearPair, L, refineTicker);
-      if (solution.refinedLinks > 0) closeRows(H, *recv, *closure);
+      closeRows(H, *recv, *closure);  // after pairs walked again (links, or pairs once called hidden)
       solveFrom = kRefineProgress[2];
       solution.matrixEntries = H.nearEntries;
       solution.farLinks = H.linkCount;
