@@ -746,9 +746,10 @@ std::string lampRoomGltf() {
 
 // In a closed scene all the emitted light must be absorbed; where the bake loses or gains more
 // than 5% of it, the patches (or the hierarchical transport's links) are too coarse for where the
-// light falls, and radbake says so. The lamp room at one patch a face loses 84%, at 4 × 4 gains
-// 10.7% (the exact transport too: 10.5%); the furnace-like cube (an emitting floor) balances to
-// 4e-6, and the open Cornell box is not closed.
+// light falls, and radbake says so, with a length for --max-edge where patches are longer than a
+// sixteenth of the scene. The lamp room at one patch a face loses 84%, at 4 × 4 gains 10.7% (the
+// exact transport too: 10.5%), and with the advised --max-edge 0.1 balances; the furnace-like cube
+// (an emitting floor) balances to 4e-6, and the open Cornell box is not closed.
 TEST(BadInput, LightThatDoesNotBalanceInAClosedSceneIsAWarning) {
   const fs::path f = tempDir() / "lamp.gltf";
   std::ofstream(f) << lampRoomGltf();
@@ -766,11 +767,28 @@ TEST(BadInput, LightThatDoesNotBalanceInAClosedSceneIsAWarning) {
               std::to_string(percent) + (lost ? "% of the emitted power is lost (" : "% of the emitted power is gained ("))
         << line;
     EXPECT_NE(line.find(lost ? "(energy.escapedFraction 0." : "(energy.escapedFraction -0."), std::string::npos) << line;
-    EXPECT_NE(line.find("); the patches or the transport's links are too coarse where the light falls: refine with --subdivide or "
-                        "--max-edge, or tighten --accuracy"),
+    // A patch edge (a triangle's diagonal, √2 or √2/4) longer than a sixteenth of the room's diagonal
+    // (√3/16 = 0.108): that length named, rounded down.
+    EXPECT_NE(line.find(std::string("); the patches or the transport's links are too coarse where the light falls: refine with "
+                                    "--max-edge 0.1 (a sixteenth of the scene; its longest patch edge is ") +
+                        (lost ? "1.4" : "0.35") + "), or tighten --accuracy"),
               std::string::npos)
         << line;
     EXPECT_NEAR(percent, lost ? 84 : 11, 2) << line;
+  }
+  {  // The advice taken: balanced within 5%, no warning.
+    const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "lamp.glb").string(), "--max-edge", "0.1", "--progress", "none"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find("does not balance"), std::string::npos) << r.err;
+  }
+  {  // Patches already finer than a sixteenth (16 × 16: √2/16 < 0.108), the light left unbalanced by
+     // a solve stopped early: the general advice.
+    const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "lamp.glb").string(), "--subdivide", "16", "--tolerance", "0.5",
+                                 "--progress", "none"});
+    EXPECT_EQ(r.code, 0) << r.err;
+    const size_t at = r.err.find("does not balance");
+    ASSERT_NE(at, std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("refine with --subdivide or --max-edge, or tighten --accuracy", at), std::string::npos) << r.err;
   }
   for (const char* scene : {"floor_emitter_cube.gltf", "cornell_box.gltf"}) {
     const RunResult r = radbake({"bake", (kTestData / "scenes" / scene).string(), "-o", (tempDir() / "ok.glb").string(), "--progress", "none"});

@@ -77,6 +77,22 @@ class Progress {
 constexpr uint64_t kMinMemory = uint64_t(64) << 20;
 // The share of a closed scene's emitted power that may go unaccounted for before radbake warns.
 constexpr double kUnbalancedLight = 0.05;
+// Where the light does not balance and some patch is longer than the scene's diagonal over this,
+// the warning names --max-edge at that length.
+constexpr double kAdvisedEdgeShare = 16;
+
+// The longest patch edge and the diagonal of the patches' bounding box.
+std::pair<double, double> longestEdge(const PatchMesh& mesh) {
+  double longest = 0;
+  Bounds bounds;
+  for (const Patch& patch : mesh.patches)
+    for (int k = 0; k < 4; ++k) {
+      const Vec3& a = mesh.positions[patch.v[k]];
+      longest = std::max(longest, length(mesh.positions[patch.v[(k + 1) % 4]] - a));
+      bounds.add(a);
+    }
+  return {longest, bounds.diagonal()};
+}
 
 nlohmann::json vec3Json(const Vec3& v) { return {v.x, v.y, v.z}; }
 
@@ -337,8 +353,20 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
     message << std::filesystem::path(options.input).filename().string() << ": the light of this closed scene does not balance: "
             << std::lround(std::abs(escaped) * 100) << "% of the emitted power is " << (escaped > 0 ? "lost" : "gained")
             << " (energy.escapedFraction " << std::setprecision(3) << escaped
-            << "); the patches or the transport's links are too coarse where the light falls: refine with --subdivide or "
-               "--max-edge, or tighten --accuracy";
+            << "); the patches or the transport's links are too coarse where the light falls: refine with ";
+    // A concrete length where some patch is longer than a sixteenth of the scene: issue 16's
+    // Blender room (one quad a wall, a panel 2 cm under the ceiling) lost 81% of its light and
+    // came out 4-7 times too dark; at --max-edge 0.5 (its sixteenth) 2%.
+    const auto [longest, diagonal] = longestEdge(mesh);
+    if (longest > diagonal / kAdvisedEdgeShare) {
+      // Two digits, rounded down: a bake with that length gets the general advice next.
+      const double scale = std::pow(10.0, std::floor(std::log10(diagonal / kAdvisedEdgeShare)) - 1);
+      message << "--max-edge " << std::setprecision(2) << std::floor(diagonal / kAdvisedEdgeShare / scale) * scale
+              << " (a sixteenth of the scene; its longest patch edge is " << longest << ")";
+    } else {
+      message << "--subdivide or --max-edge";
+    }
+    message << ", or tighten --accuracy";
     scene.warnings.push_back(message.str());
   }
   progress.stage("export");
