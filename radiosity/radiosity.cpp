@@ -1398,8 +1398,9 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
               if (w.deferredHidden) {
                 (*w.deferredHidden)[task].push_back({gi, ci});
                 kept += sizeof(std::pair<uint32_t, uint32_t>);
+              } else if (trace(g.count * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) {
+                seen = 1;
               }
-              else if (trace(g.count * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) seen = 1;
             }
             if (seen == 0 && asked == count) continue;
             sawLight = seen > 0;
@@ -1683,6 +1684,8 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
 size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
                      const Receivers& recv, const NearPair& nearPair, const std::vector<Vec3>& L, Ticker& ticker) {
   const ClusterTree &S = h.source, &R = h.groups.tree;
+  const auto deferred = std::move(h.deferredHidden);  // taken up here or dropped (hidden) on any return
+  h.deferredHidden.clear();
   if (S.empty() || R.empty()) return 0;
   // Each patch's light ∫ L dA (the mean of the channels), the source order's running sum of it,
   // and each node's weight.
@@ -1736,14 +1739,15 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
     // light; tracing them all in the first walk spent two thirds of the hidden verdicts' rays in
     // the Blender room, nearly all on the dark insides of its open, double-sided Suzannes.
     for (size_t task = range.begin(); task != range.end(); ++task)
-      for (const auto& [gi, ci] : h.deferredHidden[task]) {
+      for (const auto& [gi, ci] : deferred[task]) {
         const TreeNode &g = R.nodes[gi], &c = S.nodes[ci];
         const double factor = linkEstimate(g, c, 1).factor * brightness(c);
-        if (std::min(kHiddenRays, uint32_t(std::ceil(factor / kHiddenFactorPerRay))) > raysPerReceiver(g.count, factor))
-          starts[task].push_back({gi, ci}), ++hiddenAgain[task];
+        if (std::min(kHiddenRays, uint32_t(std::ceil(factor / kHiddenFactorPerRay))) > raysPerReceiver(g.count, factor)) {
+          starts[task].push_back({gi, ci});
+          ++hiddenAgain[task];
+        }
       }
   });
-  h.deferredHidden.clear();
   size_t walks = 0, redone = 0;  // pairs walked again, of them links
   for (size_t task = 0; task < tasks.size(); ++task) {
     walks += starts[task].size();
