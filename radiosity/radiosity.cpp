@@ -1162,6 +1162,13 @@ uint32_t raysPerReceiver(uint32_t receivers, double factor) {
                   std::clamp<uint32_t>(uint32_t(std::ceil(factor / kFactorPerRay)), 1, kClusterRays));
 }
 
+// Rays per receiver before a pair whose link rays are all blocked is called hidden: one for every
+// kHiddenFactorPerRay of its factor, up to kHiddenRays (more than raysPerReceiver gives: the
+// extra rays, which the first walk defers to refineByLight).
+uint32_t hiddenRaysPerReceiver(double factor) {
+  return std::min(kHiddenRays, uint32_t(std::ceil(factor / kHiddenFactorPerRay)));
+}
+
 std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::function<bool(uint32_t)>& gathers,
                                                 std::vector<double>& nodeError,
                                                 const std::function<size_t(uint32_t, uint32_t, std::vector<uint32_t>&)>& leaf,
@@ -1393,7 +1400,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // All blocked: more rays per receiver before the pair is called hidden, where its factor
             // asks for them (kHiddenRays); one getting through makes it partly seen (count is at
             // least kClusterRays, so seen = 1 is not a link).
-            const uint32_t hiddenRays = std::min(kHiddenRays, uint32_t(std::ceil(factor / kHiddenFactorPerRay)));
+            const uint32_t hiddenRays = hiddenRaysPerReceiver(factor);
             if (seen == 0 && asked == count && hiddenRays > perReceiver) {
               if (w.deferredHidden) {
                 (*w.deferredHidden)[task].push_back({gi, ci});
@@ -1742,7 +1749,7 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
       for (const auto& [gi, ci] : deferred[task]) {
         const TreeNode &g = R.nodes[gi], &c = S.nodes[ci];
         const double factor = linkEstimate(g, c, 1).factor * brightness(c);
-        if (std::min(kHiddenRays, uint32_t(std::ceil(factor / kHiddenFactorPerRay))) > raysPerReceiver(g.count, factor)) {
+        if (hiddenRaysPerReceiver(factor) > raysPerReceiver(g.count, factor)) {
           starts[task].push_back({gi, ci});
           ++hiddenAgain[task];
         }
