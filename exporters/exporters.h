@@ -24,7 +24,8 @@ struct DisplayOptions {
   std::optional<double> exposure;  // EV applied to the radiance first; empty: automatic
 };
 
-// Automatic exposure puts the 90th percentile of the lit (non-emitting) surfaces' luminance here.
+// Automatic exposure puts the 90th percentile, by area, of the lit (non-emitting) surfaces'
+// luminance here.
 constexpr double kAutoExposureTarget = 0.8;
 
 // The display transform as resolved: names filled in, exposure chosen.
@@ -33,13 +34,15 @@ struct DisplayShaping {
   std::string configName;  // the file, or a description of the built-in config
   double exposure = 0;     // EV
   bool automatic = false;
-  double keyLuminance = 0;  // automatic: the 90th-percentile luminance it was set from
+  double keyLuminance = 0;  // automatic: the 90th-percentile luminance (by area) it was set from
 };
 
 // Loads or builds the config and checks the display and view: Error(kInvalidInput) naming the file
 // for a config OCIO cannot use, Error(kUsage) listing the choices for an unknown display or view.
-// `reflected`: radiance of lit, non-emitting surface points, for the automatic exposure.
-DisplayShaping resolveDisplay(const DisplayOptions& options, const std::vector<Vec3>& reflected = {});
+// `reflected`: radiance of lit, non-emitting surface points, and the area each stands for (empty:
+// equal), for the automatic exposure.
+DisplayShaping resolveDisplay(const DisplayOptions& options, const std::vector<Vec3>& reflected = {},
+                              const std::vector<double>& area = {});
 
 // Scene-linear radiance → display code values in [0,1] (for the built-in display: sRGB encoded).
 std::vector<Vec3> toDisplay(const DisplayShaping& shaping, const std::vector<Vec3>& radiance);

@@ -680,12 +680,10 @@ ExportSummary exportGltf(const std::string& path, const Scene& scene, const Patc
         if (lightmap) b.light.push_back(lightOf(vertexRadiance[pv], mesh.vertexEmission[pv], mesh.vertexReflectance[pv]));
       }
     }
-    if (lightmap) {
-      b.positions = outputPositions(prim, patches);
-      b.triangles = patches.keepsSourceVertices ? sourceTriangles(prim) : patches.triangles;
-    } else {
-      b.texture = textureAtVertices(scene, prim, patches);
-    }
+    // (the geometry for lightmaps and for the automatic exposure's areas)
+    b.positions = outputPositions(prim, patches);
+    b.triangles = patches.keepsSourceVertices ? sourceTriangles(prim) : patches.triangles;
+    if (!lightmap) b.texture = textureAtVertices(scene, prim, patches);
     baked.push_back(std::move(b));
   }
   for (const GeneratedSurface& surface : mesh.generated) {
@@ -703,13 +701,21 @@ ExportSummary exportGltf(const std::string& path, const Scene& scene, const Patc
 
   // Display shaping: one exposure for the whole scene, set from the surfaces that only reflect.
   std::vector<Vec3> reflected, all;
+  std::vector<double> area;  // a third of the triangles around each vertex
   for (const BakedPrimitive& b : baked) {
     const Vec3& emission = scene.materials[b.material].emission;
-    if (emission.x <= 0 && emission.y <= 0 && emission.z <= 0)
+    if (emission.x <= 0 && emission.y <= 0 && emission.z <= 0) {
       reflected.insert(reflected.end(), b.radiance.begin(), b.radiance.end());
+      const size_t first = area.size();
+      area.resize(first + b.radiance.size());
+      for (const auto& t : b.triangles) {
+        const double a = length(cross(b.positions[t[1]] - b.positions[t[0]], b.positions[t[2]] - b.positions[t[0]])) / 6;
+        for (uint32_t v : t) area[first + v] += a;
+      }
+    }
     if (!lightmap) all.insert(all.end(), b.radiance.begin(), b.radiance.end());
   }
-  summary.display = resolveDisplay(options.display, reflected);
+  summary.display = resolveDisplay(options.display, reflected, area);
 
   std::vector<std::pair<std::string, std::string>> files;
   if (lightmap) {

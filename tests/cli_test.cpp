@@ -797,6 +797,22 @@ TEST(BadInput, LightThatDoesNotBalanceInAClosedSceneIsAWarning) {
   }
 }
 
+// Refinement crowds vertices where the light changes fastest, around the lamp room's lamp: the
+// automatic exposure follows the area, not the vertices. Measured: refined 6.21 EV, uniform 6.11;
+// taken over vertices the refined bake was exposed 0.85 EV, 5.3 EV darker.
+TEST(Display, AutomaticExposureDoesNotFollowRefinement) {
+  const fs::path f = tempDir() / "lamp.gltf";
+  std::ofstream(f) << lampRoomGltf();
+  auto exposure = [&](std::vector<std::string> args) {
+    const fs::path report = tempDir() / "lamp.json";
+    args.insert(args.begin(), {"bake", f.string(), "-o", (tempDir() / "lamp.glb").string(), "--report", report.string(), "-q"});
+    const RunResult r = radbake(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return json::parse(std::ifstream(report))["display"]["exposure"].get<double>();
+  };
+  EXPECT_NEAR(exposure({"--refine", "0.05", "--max-patches", "1000"}), exposure({"--max-edge", "0.1"}), 0.3);
+}
+
 TEST(BadInput, UnwritableOutputIsExit4) {
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "furnace_cube.gltf").string(), "-o",
                                "/nonexistent-dir/out.glb", "--progress", "none"});
@@ -1274,7 +1290,7 @@ TEST(Display, CornellColorsAreTheStandardViewAndMaterialsUnlit) {
   EXPECT_EQ(rep["display"]["automaticExposure"], false);
 }
 
-TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileAtTheTarget) {
+TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileByAreaAtTheTarget) {
   const fs::path dir = tempDir();
   const fs::path out = dir / "auto.glb", report = dir / "auto.json";
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
@@ -1282,16 +1298,42 @@ TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileAtTheTarget) {
   ASSERT_EQ(r.code, 0) << r.err;
   tinygltf::Model m;
   ASSERT_TRUE(loadModel(out, &m));
-  std::vector<double> luminance;  // the non-emitting surfaces' vertices, recomputed from the file
+  // The non-emitting surfaces' vertices, recomputed from the file: luminance and a third of the
+  // area of the triangles around each (the box's nodes have no transform).
+  std::vector<std::pair<double, double>> luminance;
+  double total = 0;
   for (const auto& mesh : m.meshes)
     for (const auto& prim : mesh.primitives) {
       const auto& emissive = m.materials.at(prim.material).emissiveFactor;
       if (emissive.size() == 3 && emissive[0] + emissive[1] + emissive[2] > 0) continue;
       const auto L = floatAttribute(m, prim, "_RADIANCE");
-      for (size_t i = 0; i < L.size(); i += 3) luminance.push_back(0.2126 * L[i] + 0.7152 * L[i + 1] + 0.0722 * L[i + 2]);
+      const auto P = floatAttribute(m, prim, "POSITION");
+      const size_t first = luminance.size();
+      for (size_t i = 0; i < L.size(); i += 3) luminance.push_back({0.2126 * L[i] + 0.7152 * L[i + 1] + 0.0722 * L[i + 2], 0});
+      const std::string idx = accessorBytes(m, prim.indices);
+      const bool wide = m.accessors[prim.indices].componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+      std::vector<uint32_t> index(idx.size() / (wide ? 4 : 2));
+      for (size_t k = 0; k < index.size(); ++k) {
+        uint32_t v32 = 0;
+        uint16_t v16 = 0;
+        if (wide) std::memcpy(&v32, idx.data() + 4 * k, 4);
+        else std::memcpy(&v16, idx.data() + 2 * k, 2), v32 = v16;
+        index[k] = v32;
+      }
+      for (size_t t = 0; t + 2 < index.size(); t += 3) {
+        auto at = [&](int c) { return radbake::Vec3{P[3 * index[t + c]], P[3 * index[t + c] + 1], P[3 * index[t + c] + 2]}; };
+        const double a = radbake::length(radbake::cross(at(1) - at(0), at(2) - at(0))) / 6;
+        for (int c = 0; c < 3; ++c) luminance[first + index[t + c]].second += a;
+        total += 3 * a;
+      }
     }
   std::sort(luminance.begin(), luminance.end());
-  const double p90 = luminance[size_t(0.9 * double(luminance.size()))];
+  double p90 = 0;
+  for (double below = 0; const auto& [y, a] : luminance)
+    if ((below += a) > 0.9 * total) {
+      p90 = y;
+      break;
+    }
   const json rep = json::parse(std::ifstream(report));
   EXPECT_EQ(rep["display"]["automaticExposure"], true);
   EXPECT_NEAR(rep["display"]["keyLuminance"].get<double>(), p90, 1e-6 * p90);
