@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <numeric>
 #include <unordered_map>
 #include <span>
 #include <string>
@@ -2135,6 +2136,10 @@ bool passesCutout(const Scene& scene, const PatchMesh& mesh, uint32_t patch, dou
 struct PatchLight {
   double error = 0, level = 0;
   double nearError = 0;  // the same for the open share of the near hemisphere (nearOpenness), times ρ
+  // Second phase: the same for the direct light plus the first bounce's light gathered by rays
+  // (less twice their noise), and their mean.
+  double bounceError = 0, bounceLevel = 0;
+  std::array<double, 4> corner{};  // the direct light's values at the corners (covered ones filled in)
   bool dark = false;     // inside a dark room (the inside of a closed double-sided object): never lit
 };
 
@@ -2231,10 +2236,100 @@ std::vector<Emitter> measuredEmitters(const PatchMesh& mesh) {
 // samples stays below a 2% target on a floor that sees most of the sky; 16 directions' 1/16 did not).
 double skyOpenness(const Sight& sight, const Vec3& n) { return openness<8>(sight, n, 2 * sight.occlusion.sceneSize()); }
 
-std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& mesh, const std::vector<uint32_t>& which,
-                                           double sky) {
+// The light surfaces reflect once (the direct light, times ρ) as refinement's second phase sees
+// it: the corner values of each patch of the mesh the first phase left (PatchLight::corner), and
+// an occlusion over that mesh. Later rounds go on splitting it; the samples of a new patch lie on
+// the same surfaces, so rays from them (a little off the surface, without an ignore list) meet
+// that mesh where they would meet the new one.
+struct BounceField {
+  const PatchMesh& mesh;
+  const Occlusion& occlusion;
+  std::vector<std::array<double, 4>> corner;
+};
+// That light gathered at a point: its mean where 64 fixed cosine-distributed rays first meet a
+// surface (bilinear over the patch met), and the variance of that mean (the rays taken as
+// independent: they are stratified, so it errs on the safe side).
+struct Gathered {
+  double mean = 0, variance = 0;
+};
+// The parameters (s, t) in [-1, 1]² of pointOnPatch at a point in the plane of a planar patch: the
+// bilinear map inverted in closed form in the patch's plane (nearestQuadPoint's search was the
+// gather's largest cost).
+std::pair<double, double> patchParameters(const std::array<Vec3, 4>& q, const Vec3& normal, const Vec3& p) {
+  // Project on the coordinate plane the normal is most nearly perpendicular to.
+  const double ax = std::abs(normal.x), ay = std::abs(normal.y), az = std::abs(normal.z);
+  auto flat = [&](const Vec3& v) -> std::array<double, 2> {
+    if (ax >= ay && ax >= az) return {v.y, v.z};
+    if (ay >= az) return {v.z, v.x};
+    return {v.x, v.y};
+  };
+  const auto a = flat(q[0]), b = flat(q[1]), c = flat(q[2]), d = flat(q[3]), x = flat(p);
+  const std::array<double, 2> e{b[0] - a[0], b[1] - a[1]}, f{d[0] - a[0], d[1] - a[1]},
+      g{a[0] - b[0] + c[0] - d[0], a[1] - b[1] + c[1] - d[1]}, h{x[0] - a[0], x[1] - a[1]};
+  auto cross2 = [](const std::array<double, 2>& u, const std::array<double, 2>& v) { return u[0] * v[1] - u[1] * v[0]; };
+  const double k2 = cross2(g, f), k1 = cross2(e, f) + cross2(h, g), k0 = cross2(h, e);
+  auto uOf = [&](double v) {  // from whichever coordinate divides better
+    const double dx = e[0] + g[0] * v, dy = e[1] + g[1] * v;
+    return std::abs(dx) >= std::abs(dy) ? (h[0] - f[0] * v) / dx : (h[1] - f[1] * v) / dy;
+  };
+  double u = 0, v = 0;
+  if (std::abs(k2) <= 1e-12 * std::abs(k1)) {  // a parallelogram (or nearly): linear in v
+    v = -k0 / k1;
+    u = uOf(v);
+  } else {
+    const double w = std::sqrt(std::max(0.0, k1 * k1 - 4 * k0 * k2));
+    v = (-k1 - w) / (2 * k2);
+    u = uOf(v);
+    if (!(u >= -1e-9 && u <= 1 + 1e-9 && v >= -1e-9 && v <= 1 + 1e-9)) {
+      v = (-k1 + w) / (2 * k2);
+      u = uOf(v);
+    }
+  }
+  if (!std::isfinite(u) || !std::isfinite(v)) {
+    const QuadPoint at = nearestQuadPoint(q, p);
+    return {at.s, at.t};
+  }
+  return {2 * std::clamp(u, 0.0, 1.0) - 1, 2 * std::clamp(v, 0.0, 1.0) - 1};
+}
+
+Gathered gatherBounce(const BounceField& field, const Vec3& from, const Vec3& n) {
+  const PatchMesh& mesh = field.mesh;
+  const auto [t, b] = tangentFrame(n);
+  constexpr int S = 8, kRays = S * S;
+  const double reach = 2 * field.occlusion.sceneSize();
+  double sum = 0, squares = 0;
+  for (int k = 0; k < kRays; ++k) {
+    const double u = (k / S + 0.5) / S, phi = 2 * kPi * ((k % S) + 0.5 * (k / S % 2) + 0.25) / S;
+    const double r = std::sqrt(u), h = std::sqrt(std::max(0.0, 1 - u));
+    const Vec3 d = t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * h;
+    int64_t hit = field.occlusion.firstHit(from, from + d * reach);
+    if (hit < 0) continue;  // the sky is direct light
+    // Both sides of a double-sided surface are patches in one place: the one facing the ray's
+    // origin is seen; the back of a one-sided surface sends nothing.
+    if (!(dot(mesh.patches[hit].normal, d) < 0)) hit = mesh.patches[hit].twin;
+    if (hit < 0) continue;
+    const Patch& p = mesh.patches[hit];
+    const Vec3& q0 = mesh.positions[p.v[0]];
+    const double along = dot(p.normal, q0 - from) / dot(p.normal, d);
+    const auto [ps, pt] = patchParameters(corners(mesh, p), p.normal, from + d * along);
+    const auto w = shapeFunctions(ps, pt);
+    double value = 0;
+    for (int j = 0; j < 4; ++j) value += w[j] * field.corner[hit][j];
+    value = std::max(0.0, value);
+    sum += value;
+    squares += value * value;
+  }
+  const double mean = sum / kRays;
+  return {mean, std::max(0.0, squares / kRays - mean * mean) / (kRays - 1)};
+}
+
+std::vector<PatchLight> measureLight(const Scene& scene, const PatchMesh& mesh, const std::vector<uint32_t>& which,
+                                     double sky, const BounceField* bounce) {
   std::vector<PatchLight> out(which.size());
-  const std::vector<Emitter> emitters = measuredEmitters(mesh);
+  // In the second phase, the emitters of the field's mesh: rounds that split an emitter then
+  // neither measure every patch again nor its pieces one by one (a lamp's back split to the finest
+  // cells along its rim was hundreds of polygons for every sample, and took 97 of 110 s).
+  const std::vector<Emitter> emitters = measuredEmitters(bounce ? bounce->mesh : mesh);
   if ((emitters.empty() && scene.lights.empty() && !(sky > 0)) || which.empty()) return out;
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
@@ -2259,7 +2354,9 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
       const auto q = corners(mesh, patch);
       const uint32_t self[2] = {k, uint32_t(patch.twin)};
       const std::span<const uint32_t> ignore(self, patch.twin >= 0 ? 2 : 1);
-      double value[9], open[9];
+      // Per sample: the direct light, in the second phase plus the light gathered from the first
+      // bounce (and its variance), and the near hemisphere's open share, each times ρ.
+      double value[9], gathered[9] = {}, variance[9] = {}, open[9];
       bool hidden[9];
       size_t rays = 0;
       for (int i = 0; i < 9; ++i) {
@@ -2272,15 +2369,23 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
         double d = luminance(directIrradiance(scene.lights, sight, x, patch.normal)) / kPi;
         if (sky > 0) d += sky * skyOpenness(sight, patch.normal);
         for (const Emitter& source : emitters) {
-          if (source.holds(k) || source.holds(uint32_t(patch.twin))) continue;  // a patch does not light itself
+          // A patch does not light itself (second phase: the plane test below).
+          if (!bounce && (source.holds(k) || source.holds(uint32_t(patch.twin)))) continue;
           const auto& qe = source.q;
-          if (!(dot(source.normal, x - qe[0]) > 0)) continue;  // behind the emitter: it sends nothing here
+          // Behind the emitter it sends nothing; in the second phase, a patch in its plane is a piece of it.
+          if (!(dot(source.normal, x - qe[0]) > (bounce ? occlusion.epsilon() : 0))) continue;
           const double factor = pointPolygonFactor(x, patch.normal, qe.data(), 4);
           if (!(factor > 0)) continue;
           const auto seen = visibleFraction(sight, patch.normal, qe, source.normal, kVisibilityPiece / 10, rays);
           d += source.emission * factor * (seen[0] + seen[1] + seen[2] + seen[3]) / 4;
         }
-        value[i] = luminance(patch.reflectance) * d;
+        const double rho = luminance(patch.reflectance);
+        value[i] = rho * d;
+        if (bounce) {
+          const Gathered g = gatherBounce(*bounce, sight.from, patch.normal);
+          gathered[i] = value[i] + rho * g.mean;
+          variance[i] = rho * rho * g.variance;
+        }
       }
       // A covered corner (under an object standing on the patch) takes, as its vertex does in the
       // solve (relocateCovered), the light beside the object: the mean of its uncovered neighbours
@@ -2288,25 +2393,35 @@ std::vector<PatchLight> measureDirectLight(const Scene& scene, const PatchMesh& 
       constexpr int kNeighbours[4][2] = {{5, 8}, {5, 6}, {6, 7}, {7, 8}};
       for (int c = 0; c < 4; ++c) {
         if (!hidden[c]) continue;
-        int count = 0;
-        double v = 0;
+        std::vector<int> from;
         for (int i : kNeighbours[c])
-          if (!hidden[i]) v += value[i], ++count;
-        if (count == 0 && !hidden[4]) v = value[4], count = 1;
-        if (count > 0) value[c] = v / count;
+          if (!hidden[i]) from.push_back(i);
+        if (from.empty() && !hidden[4]) from.push_back(4);
+        if (from.empty()) continue;
+        value[c] = gathered[c] = variance[c] = 0;
+        for (int i : from) {
+          value[c] += value[i] / double(from.size());
+          gathered[c] += gathered[i] / double(from.size());
+          variance[c] += variance[i] / double(from.size() * from.size());
+        }
       }
-      // How far the bilinear interpolation of the corner samples misses the inner ones.
-      auto missed = [&](const double* v, bool skipHidden) {
+      // How far the bilinear interpolation of the corner samples misses the inner ones, less twice
+      // the noise of that difference (second phase: the gather's rays alone must not split a cell).
+      auto missed = [&](const double* v, const double* noise, bool skipHidden) {
         double worst = 0;
         for (int i = 4; i < 9; ++i) {
           if (skipHidden && hidden[i]) continue;
           const auto n = shapeFunctions(kSample[i][0], kSample[i][1]);
-          worst = std::max(worst, std::abs(v[i] - (n[0] * v[0] + n[1] * v[1] + n[2] * v[2] + n[3] * v[3])));
+          double var = noise[i];
+          for (int c = 0; c < 4; ++c) var += n[c] * n[c] * noise[c];
+          worst = std::max(worst, std::abs(v[i] - (n[0] * v[0] + n[1] * v[1] + n[2] * v[2] + n[3] * v[3])) - 2 * std::sqrt(var));
         }
         return worst;
       };
-      const double worst = missed(value, true), worstNear = missed(open, false);
-      out[w] = {worst, (value[0] + value[1] + value[2] + value[3] + 4 * value[4]) / 8, worstNear};
+      auto mean = [](const double* v) { return (v[0] + v[1] + v[2] + v[3] + 4 * v[4]) / 8; };
+      const double none[9] = {};
+      out[w] = {missed(value, none, true), mean(value), missed(open, none, false), bounce ? missed(gathered, variance, true) : 0,
+                bounce ? mean(gathered) : 0, {value[0], value[1], value[2], value[3]}};
     }
   });
   return out;
@@ -2328,22 +2443,79 @@ PatchKey patchKey(const PatchMesh& mesh, const Patch& patch) {
   return key;
 }
 
-}  // namespace
+// One round's choice (a split makes three more patches, more where fans and balance follow, so a
+// round takes at most a quarter of what is left of the budget in cells): the cells of patches whose error (relative to the mean; negative: not
+// measured) is above the target, by what those patches add to the squared error integrated over
+// the area (e² A), so the budget goes first where the field is most wrong over the most area; the
+// worst that hold half of that mass, at most `share` of what is left of the budget. A hot spot (a
+// lamp 2 cm under a ceiling, 70 times the mean) then goes down a level every round, instead of
+// waiting while each round spends a quarter of the budget on everything above the target (a
+// Blender room spent its whole budget in 4 rounds and its ceiling kept 3-m cells over the hot
+// spot). Cells at the finest level are left out (also of `worst`): along a sharp shadow their
+// error stays near 1 at any size. False when nothing is split (none above, or no budget left).
+bool splitWorst(const PatchMesh& mesh, const std::vector<double>& error, double target, TessellateOptions& options,
+                Refinement& summary) {
+  std::map<Cell, double> above;  // a double-sided patch and its twin share their cell
+  summary.worst = 0;
+  for (size_t k = 0; k < mesh.patches.size(); ++k) {
+    const Cell& cell = mesh.patches[k].cell;
+    if (cell.primitive < 0 || cell.level >= kMaxRefineLevel || error[k] < 0) continue;
+    summary.worst = std::max(summary.worst, error[k]);
+    if (error[k] > target) above[cell] += error[k] * error[k] * mesh.patches[k].area;
+  }
+  if (above.empty()) return false;
+  const size_t room = mesh.patches.size() < summary.maxPatches ? (summary.maxPatches - mesh.patches.size()) / 4 : 0;
+  if (room == 0) {
+    summary.budgetReached = true;
+    return false;
+  }
+  std::vector<std::pair<double, Cell>> worstFirst;
+  double mass = 0;
+  for (const auto& [cell, e] : above) {
+    worstFirst.push_back({e, cell});
+    mass += e;
+  }
+  std::stable_sort(worstFirst.begin(), worstFirst.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  size_t take = 0;
+  for (double taken = 0; take < worstFirst.size() && take < room && taken < mass / 2; ++take) taken += worstFirst[take].first;
+  worstFirst.resize(take);
+  for (const auto& [e, cell] : worstFirst) options.split.insert(cell);
+  summary.splitCells += worstFirst.size();
+  ++summary.rounds;
+  return true;
+}
 
-// A split makes three more patches, more where fans and balance follow, so a round takes at most a
-// quarter of what is left of the budget in cells.
-Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches,
-                      const Vec3& sky) {
-  Refinement summary;
-  summary.maxPatches = maxPatches > 0 ? maxPatches : std::max<size_t>(20000, 4 * mesh.patches.size());
+// Refinement's first phase (the direct light) takes this share of the budget; the second (the
+// first bounce gathered too) the rest. 0.3 and 0.7 measured alike on the level-0 Blender room
+// (1.7% of its light lost either way) and on the Cornell box (docs/radiosity.md).
+constexpr double kDirectShare = 0.5;
+
+double areaMean(const PatchMesh& mesh, const std::vector<PatchLight>& light, double PatchLight::*level) {
+  double sum = 0, area = 0;
+  for (size_t k = 0; k < mesh.patches.size(); ++k) {
+    if (light[k].dark) continue;
+    sum += light[k].*level * mesh.patches[k].area;
+    area += mesh.patches[k].area;
+  }
+  return area > 0 ? sum / area : 0;
+}
+
+// Rounds of measuring the patches not seen before and splitting the worst cells, until none is
+// above the target, the budget (summary.maxPatches × budgetShare) is spent, or 40 rounds; returns
+// the measure of the mesh's patches as they are at the end.
+std::vector<PatchLight> refineRounds(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target,
+                                     double budgetShare, double sky, const BounceField* bounce, Refinement& summary) {
   constexpr int kMaxRounds = 4 * kMaxRefineLevel;
+  Refinement phase;
+  phase.maxPatches = size_t(double(summary.maxPatches) * budgetShare);
   std::unordered_map<PatchKey, PatchLight, WordsHash<13>> known;
   size_t emitters = 0;
+  std::vector<PatchLight> light;
   for (int round = 0;; ++round) {
-    // Measure the patches not seen before (all of them if the emitters changed).
+    // Measure the patches not seen before (in the first phase all of them if the emitters changed).
     size_t emitting = 0;
     for (const Patch& p : mesh.patches) emitting += luminance(p.emission) > 0;
-    if (emitting != emitters) known.clear();
+    if (emitting != emitters && !bounce) known.clear();
     emitters = emitting;
     std::vector<PatchKey> keys(mesh.patches.size());
     std::vector<uint32_t> fresh;
@@ -2351,55 +2523,48 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
       keys[k] = patchKey(mesh, mesh.patches[k]);
       if (!known.count(keys[k])) fresh.push_back(uint32_t(k));
     }
-    const std::vector<PatchLight> measured = measureDirectLight(scene, mesh, fresh, luminance(sky));
+    const std::vector<PatchLight> measured = measureLight(scene, mesh, fresh, sky, bounce);
     for (size_t w = 0; w < fresh.size(); ++w) known[keys[fresh[w]]] = measured[w];
-    double sum = 0, area = 0;
+    light.assign(mesh.patches.size(), {});
+    for (size_t k = 0; k < mesh.patches.size(); ++k) light[k] = known[keys[k]];
+    const double mean = areaMean(mesh, light, &PatchLight::level), bounceMean = areaMean(mesh, light, &PatchLight::bounceLevel);
+    std::vector<double> error(mesh.patches.size(), -1);
+    // The near hemisphere's share stands for the indirect light, at the scale of the mean direct
+    // light. In the second phase the first bounce is gathered too (relative to its own mean), and
+    // a cell is judged by the worse of the two: the gathered light is noisier (a contact's few per
+    // cent are below its noise), but it sees what the direct light does not (a lamp's back 2 cm
+    // under a ceiling, lit by the ceiling only).
     for (size_t k = 0; k < mesh.patches.size(); ++k) {
-      if (known[keys[k]].dark) continue;
-      sum += known[keys[k]].level * mesh.patches[k].area;
-      area += mesh.patches[k].area;
+      if (!(mean > 0) || light[k].dark) continue;
+      error[k] = light[k].error / mean + light[k].nearError;
+      if (bounce && bounceMean > 0) error[k] = std::max(error[k], light[k].bounceError / bounceMean);
     }
-    const double mean = area > 0 ? sum / area : 0;
-    // Each cell above the target, by what its patches add to the squared error integrated over the
-    // area (e² A): the budget goes first where the field is most wrong over the most area. Cells at
-    // the finest level are left out (also of `worst`): along a sharp shadow their error stays
-    // near 1 at any size.
-    std::map<Cell, double> above;  // a double-sided patch and its twin share their cell
-    summary.worst = 0;
-    for (size_t k = 0; k < mesh.patches.size(); ++k) {
-      const Cell& cell = mesh.patches[k].cell;
-      if (cell.primitive < 0 || cell.level >= kMaxRefineLevel || !(mean > 0) || known[keys[k]].dark) continue;
-      // The near hemisphere's share stands for the indirect light, at the scale of the mean direct light.
-      const double e = known[keys[k]].error / mean + known[keys[k]].nearError;
-      summary.worst = std::max(summary.worst, e);
-      if (e > target) above[cell] += e * e * mesh.patches[k].area;
-    }
-    if (above.empty() || round == kMaxRounds) break;
-    const size_t room = mesh.patches.size() < summary.maxPatches ? (summary.maxPatches - mesh.patches.size()) / 4 : 0;
-    if (room == 0) {
-      summary.budgetReached = true;
-      break;
-    }
-    // The worst cells that hold half of the error mass above the target: a hot spot (a lamp 2 cm
-    // under a ceiling, 70 times the mean) then goes down a level every round, instead of waiting
-    // while each round spends a quarter of the budget on everything above the target (a Blender
-    // room spent its whole budget in 4 rounds and its ceiling kept 3-m cells over the hot spot).
-    std::vector<std::pair<double, Cell>> worstFirst;
-    double mass = 0;
-    for (const auto& [cell, e] : above) {
-      worstFirst.push_back({e, cell});
-      mass += e;
-    }
-    std::stable_sort(worstFirst.begin(), worstFirst.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-    size_t take = 0;
-    for (double taken = 0; take < worstFirst.size() && take < room && taken < mass / 2; ++take) taken += worstFirst[take].first;
-    worstFirst.resize(take);
-    for (const auto& [e, cell] : worstFirst) options.split.insert(cell);
-    summary.splitCells += worstFirst.size();
-    ++summary.rounds;
+    if (round == kMaxRounds || !splitWorst(mesh, error, target, options, phase)) break;
     mesh = tessellate(scene, options);
     options.split = mesh.split;
   }
+  summary.rounds += phase.rounds;
+  summary.splitCells += phase.splitCells;
+  summary.worst = phase.worst;
+  summary.budgetReached = phase.budgetReached;
+  return light;
+}
+
+}  // namespace
+
+Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches,
+                      const Vec3& sky) {
+  Refinement summary;
+  summary.maxPatches = maxPatches > 0 ? maxPatches : std::max<size_t>(20000, 4 * mesh.patches.size());
+  // First the direct light, to part of the budget; then the first bounce of the mesh it left
+  // (kDirectShare) is gathered at the samples too, for the rest.
+  const std::vector<PatchLight> direct = refineRounds(scene, options, mesh, target, kDirectShare, luminance(sky), nullptr, summary);
+  const PatchMesh first = mesh;
+  Occlusion occlusion(first);
+  if (!first.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, first, patch, u, v); });
+  BounceField field{first, occlusion, {}};
+  for (const PatchLight& l : direct) field.corner.push_back(l.corner);
+  refineRounds(scene, options, mesh, target, 1, luminance(sky), &field, summary);
   return summary;
 }
 

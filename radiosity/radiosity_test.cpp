@@ -1026,6 +1026,37 @@ TEST(Refinement, SkyLightIsMeasuredToo) {
   }
 }
 
+// The same room as below at one patch a face: the lamp's back sees only the ceiling 2 cm above it,
+// and the light goes back and forth between them. Between two parallel plates of ρ 0.5 with
+// nothing lost at the rim, the back (emitting 1) would be 1 / (1 − ρ²) = 4/3 and the ceiling
+// 2/3 (upper bounds, but for the walls' faint light). At the centre of a 0.2-m lamp 2 cm under the
+// ceiling each sees the other with a view factor of about 0.96 (a disc of radius 0.1 at 0.02:
+// 1/(1 + 0.04)); iterating L_c = 0.5 · 0.96 · L_b, L_b = 1 + 0.5 · 0.96 · L_c from L_b = 1 gives
+// 1.30 and 0.62 there (an estimate: points nearer the rim see less). Refining by the direct light alone
+// never splits the back (it has no direct light), and left it 1.07 and the ceiling 0.52; the
+// second phase gathers the first bounce there. Measured: 1.295 and 0.620 (a uniform 2-cm bake:
+// 1.297 and 0.624).
+TEST(Refinement, TheFirstBounceRefinesALampsBackUnderTheCeiling) {
+  Scene scene;
+  scene.materials = {material("wall", 0.5, 0), material("lamp", 0.5, 1, true)};
+  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
+  scene.primitives.push_back(quadPrimitive({Vec3{0.4, 0.98, 0.4}, {0.4, 0.98, 0.6}, {0.6, 0.98, 0.6}, {0.6, 0.98, 0.4}}, 1));
+  scene.primitives[0].primitive = 0;
+  scene.primitives[1].primitive = 1;
+  TessellateOptions t;
+  PatchMesh mesh = tessellate(scene, t);
+  refineMesh(scene, t, mesh, 0.02, 2000);
+  RadiosityOptions o;
+  o.transport = TransportMode::kHierarchical;
+  const Solution s = solveRadiosity(scene, mesh, o);
+  const double back = evaluateRadiance(s, mesh, {0.5, 0.98, 0.5}, {0, 1, 0}).x;
+  const double ceiling = evaluateRadiance(s, mesh, {0.5, 1, 0.5}, {0, -1, 0}).x;
+  EXPECT_GT(back, 1.28);
+  EXPECT_LT(back, 4.0 / 3);
+  EXPECT_GT(ceiling, 0.6);
+  EXPECT_LT(ceiling, 2.0 / 3 + 0.01);  // (the walls add about 1%)
+}
+
 // A unit room (ρ 0.5, its faces with their own vertices as Blender exports a cube) lit by a
 // double-sided lamp (0.2 × 0.2, L⁰ 1) 2 cm under its ceiling, hierarchical against exact at 12×12
 // patches a face: the bounds, RMS ≤ 0.5% and largest ≤ 3% of the mean radiance. The ceiling

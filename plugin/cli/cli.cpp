@@ -473,7 +473,8 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
       ->check(finiteIn(1e-30, 1e30, "a positive length"));
   bakeCmd->add_option("--refine", o.refine,
                       "adaptive refinement: split patches, worst first, until the bilinear field misses the direct "
-                      "light by at most E of its mean (0.02 is a good start; bilinear method; docs/radiosity.md)")
+                      "light, then also its first bounce, by at most E of its mean (0.02 is a good start; bilinear "
+                      "method; docs/radiosity.md)")
       ->check(finiteIn(1e-6, 1, "a relative error from 1e-6 to 1"));
   bakeCmd->add_option("--max-patches", o.maxPatches,
                       "--refine: stop splitting at about this many patches (default: 4× the starting patches, at least 20000)")

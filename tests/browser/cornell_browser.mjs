@@ -279,7 +279,8 @@ function makeEdgePoints(gltfFile, outDir, smooth, margin) {
 
 // The control of the T-junction count: a copy of a baked file in which the first fan found (the
 // coarse side of a refined edge a–m–b, triangles around m larger than the finer side's) is
-// re-triangulated without m, as a mesh that leaves hanging vertices would be; `edges` must then
+// re-triangulated without m, as a mesh that leaves hanging vertices would be (m still a corner of
+// the finer side's triangles); `edges` must then
 // fail. Written as .gltf with its buffer embedded.
 function makeCrack(gltfFile, outFile) {
   const { g, accessor } = readGltf(gltfFile);
@@ -293,6 +294,9 @@ function makeCrack(gltfFile, outFile) {
         const around = tris.map((t, k) => [t, k]).filter(([t]) => t.includes(m));
         const big = around.filter(([t]) => area(P[t[0]], P[t[1]], P[t[2]]) > 1.5 * Math.min(...around.map(([u]) => area(P[u[0]], P[u[1]], P[u[2]]))));
         if (big.length !== 3) continue;  // a fan from a midpoint of one edge: 3 triangles
+        // ... with the finer side in this primitive too: at a primitive's border (balance across
+        // primitives that meet there) m would be left in no triangle, and no T-junction to find.
+        if (around.length === big.length) continue;
         const corners = [...new Set(big.flatMap(([t]) => t))].filter((v) => v !== m);
         if (corners.length !== 4) continue;
         // The fan in winding order: m, x, y for each triangle; chain the corners from the one after m.
@@ -301,6 +305,9 @@ function makeCrack(gltfFile, outFile) {
         const ring = [start];
         while (next.has(ring[ring.length - 1])) ring.push(next.get(ring[ring.length - 1]));
         if (ring.length !== 4) continue;
+        // m is the midpoint of the ring's ends (the coarse cell's edge it splits), or this is no such fan.
+        const mid = P[ring[0]].map((x, k) => (x + P[ring[3]][k]) / 2);
+        if (Math.hypot(...mid.map((x, k) => x - P[m][k])) > 1e-6 * Math.hypot(...sub(P[ring[0]], P[ring[3]]))) continue;
         const keep = tris.filter((_, k) => !big.some(([, j]) => j === k));
         keep.push([ring[0], ring[1], ring[2]], [ring[0], ring[2], ring[3]]);
         // Replace the primitive's indices with a new accessor in a new buffer.
