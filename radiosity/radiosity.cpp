@@ -2393,17 +2393,14 @@ std::vector<PatchLight> measureLight(const Scene& scene, const PatchMesh& mesh, 
       constexpr int kNeighbours[4][2] = {{5, 8}, {5, 6}, {6, 7}, {7, 8}};
       for (int c = 0; c < 4; ++c) {
         if (!hidden[c]) continue;
-        std::vector<int> from;
+        int from[2], count = 0;
         for (int i : kNeighbours[c])
-          if (!hidden[i]) from.push_back(i);
-        if (from.empty() && !hidden[4]) from.push_back(4);
-        if (from.empty()) continue;
-        value[c] = gathered[c] = variance[c] = 0;
-        for (int i : from) {
-          value[c] += value[i] / double(from.size());
-          gathered[c] += gathered[i] / double(from.size());
-          variance[c] += variance[i] / double(from.size() * from.size());
-        }
+          if (!hidden[i]) from[count++] = i;
+        if (count == 0 && !hidden[4]) from[count++] = 4;
+        if (count == 0) continue;
+        double v = 0, g = 0, var = 0;
+        for (int j = 0; j < count; ++j) v += value[from[j]], g += gathered[from[j]], var += variance[from[j]];
+        value[c] = v / count, gathered[c] = g / count, variance[c] = var / (count * count);
       }
       // How far the bilinear interpolation of the corner samples misses the inner ones, less twice
       // the noise of that difference (second phase: the gather's rays alone must not split a cell).
@@ -2443,11 +2440,11 @@ PatchKey patchKey(const PatchMesh& mesh, const Patch& patch) {
   return key;
 }
 
-// One round's choice (a split makes three more patches, more where fans and balance follow, so a
-// round takes at most a quarter of what is left of the budget in cells): the cells of patches whose error (relative to the mean; negative: not
+// One round's choice: the cells of patches whose error (relative to the mean; negative: not
 // measured) is above the target, by what those patches add to the squared error integrated over
 // the area (e² A), so the budget goes first where the field is most wrong over the most area; the
-// worst that hold half of that mass, at most `share` of what is left of the budget. A hot spot (a
+// worst that hold half of that mass, at most a quarter of what is left of the budget in cells (a
+// split makes three more patches, more where fans and balance follow). A hot spot (a
 // lamp 2 cm under a ceiling, 70 times the mean) then goes down a level every round, instead of
 // waiting while each round spends a quarter of the budget on everything above the target (a
 // Blender room spent its whole budget in 4 rounds and its ceiling kept 3-m cells over the hot
