@@ -42,9 +42,17 @@ class RadbakeSettings(bpy.types.PropertyGroup):
         ("constant", "Constant", "Classic constant patches (the baseline)")), default="bilinear")
     refine: bpy.props.EnumProperty(name="Refine", items=(
         ("SUBDIVIDE", "Subdivide", "Split every face into N×N patches"),
-        ("MAX_EDGE", "Max edge", "Refine until no patch edge is longer than a length")), default="SUBDIVIDE")
+        ("MAX_EDGE", "Max edge", "Refine until no patch edge is longer than a length"),
+        ("ADAPTIVE", "Adaptive", "Split patches where the light changes (the direct light, then its first bounce) "
+                                 "until the error is below a target or a patch budget is spent (bilinear method)")),
+        default="SUBDIVIDE")
     subdivide: bpy.props.IntProperty(name="Subdivide", default=4, min=1, max=64)
     max_edge: bpy.props.FloatProperty(name="Max edge", default=0.25, min=1e-4, subtype='DISTANCE')
+    refine_target: bpy.props.FloatProperty(name="Target error", default=0.02, min=1e-6, max=1.0, precision=3,
+                                           description="Largest error of the bilinear field, as a share of the mean light")
+    max_patches: bpy.props.IntProperty(name="Patch budget", default=0, min=0,
+                                       description="Stop splitting at about this many patches "
+                                                   "(0: 4× the starting patches, at least 20000)")
     exposure_auto: bpy.props.BoolProperty(name="Auto exposure", default=True)
     exposure: bpy.props.FloatProperty(name="Exposure (EV)", default=0.0, soft_min=-10, soft_max=10)
     view: bpy.props.EnumProperty(name="View", items=VIEWS, default="ACES 1.0 SDR-video")
@@ -66,6 +74,7 @@ class RadbakeSettings(bpy.types.PropertyGroup):
 
     def command_settings(self):
         return {"method": self.method, "refine": self.refine, "subdivide": self.subdivide, "max_edge": self.max_edge,
+                "refine_target": self.refine_target, "max_patches": self.max_patches,
                 "exposure_auto": self.exposure_auto, "exposure": self.exposure, "view": self.view,
                 "sky_enabled": self.sky_enabled, "sky": tuple(self.sky), "lightmap_size": self.lightmap_size}
 
@@ -332,7 +341,11 @@ class RADBAKE_PT_panel(bpy.types.Panel):
         column.enabled = not state.is_baking
         column.prop(settings, "method")
         column.prop(settings, "refine")
-        column.prop(settings, "subdivide" if settings.refine == 'SUBDIVIDE' else "max_edge")
+        if settings.refine == 'ADAPTIVE':
+            column.prop(settings, "refine_target")
+            column.prop(settings, "max_patches")
+        else:
+            column.prop(settings, "subdivide" if settings.refine == 'SUBDIVIDE' else "max_edge")
         column.separator()
         column.prop(settings, "output")
         if settings.output == 'LIGHTMAP':

@@ -26,12 +26,18 @@ def find_radbake(preference, addon_dir):
 
 def build_command(radbake, input_path, output_path, settings, lightmap_path=None):
     """The argument list for one bake. settings: a dict with method ('bilinear'|'constant'),
-    refine ('SUBDIVIDE'|'MAX_EDGE'), subdivide (int), max_edge (float), exposure_auto (bool),
+    refine ('SUBDIVIDE'|'MAX_EDGE'|'ADAPTIVE'), subdivide (int), max_edge (float), refine_target (float)
+    and max_patches (int, 0: radbake's default) for ADAPTIVE, exposure_auto (bool),
     exposure (float EV), view (str), sky_enabled (bool), sky ((r, g, b)), lightmap_size (int)."""
     args = [radbake, "bake", input_path, "-o", output_path, "--progress", "json",
             "--method", settings["method"]]
     if settings["refine"] == "MAX_EDGE":
         args += ["--max-edge", repr(float(settings["max_edge"]))]
+    elif settings["refine"] == "ADAPTIVE":
+        # From one patch a face: refinement puts the patches where the light changes.
+        args += ["--refine", repr(float(settings["refine_target"]))]
+        if int(settings.get("max_patches", 0)) > 0:
+            args += ["--max-patches", str(int(settings["max_patches"]))]
     else:
         args += ["--subdivide", str(int(settings["subdivide"]))]
     if not settings["exposure_auto"]:

@@ -63,12 +63,14 @@ def baked_file_vertices(path):
             for ni, world in gltf_file.scene_mesh_nodes(doc)}
 
 
-# ---- 1. vertex colors
+# ---- 1. vertex colors, refined adaptively (the lightmap below is uniform: both paths of the panel)
 objects = load_cornell()
 tmp = os.environ.get("RADBAKE_TEST_TMP", "/tmp")
 kept = os.path.join(tmp, "cornell_blender.glb")
 settings = bpy.context.scene.radbake
-settings.subdivide = 4
+settings.refine = 'ADAPTIVE'
+settings.refine_target = 0.05
+settings.max_patches = 1500
 settings.keep_path = kept
 result = bpy.ops.radbake.bake()
 check(result == {'FINISHED'}, "the bake finished: %s" % result)

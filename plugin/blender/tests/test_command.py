@@ -51,6 +51,17 @@ class BuildCommand(unittest.TestCase):
         self.assertEqual(args[2], "a b.glb")  # one argument, spaces and all: no shell involved
 
 
+    def test_adaptive(self):
+        s = dict(SETTINGS, refine="ADAPTIVE", refine_target=0.05, max_patches=0)
+        args = command.build_command("radbake", "in.glb", "out.glb", s)
+        self.assertEqual(args[args.index("--refine") + 1], "0.05")
+        self.assertNotIn("--max-patches", args)  # 0: radbake's own budget
+        self.assertNotIn("--subdivide", args)
+        self.assertNotIn("--max-edge", args)
+        args = command.build_command("radbake", "in.glb", "out.glb", dict(s, max_patches=8000))
+        self.assertEqual(args[args.index("--max-patches") + 1], "8000")
+
+
 class Progress(unittest.TestCase):
     def test_parses_radbake_json_lines(self):
         self.assertEqual(command.parse_progress('{"progress":0.25,"stage":"solve"}'), ("solve", 0.25))
