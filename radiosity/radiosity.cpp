@@ -2174,16 +2174,15 @@ double nearOpenness(const Sight& sight, const Vec3& n, double radius) { return o
 
 // An emitting polygon as the measure sees it: a whole uniformly emitting face (its n × n grid of
 // level-0 cells, one polygon: a Cornell box light at --subdivide 8 is one source instead of 64, and
-// visibleFraction's pieces resolve it as finely), or a single emitting patch.
+// visibleFraction's pieces resolve it as finely), or a single emitting patch. Taken from the mesh
+// refinement starts from: splitting an emitter does not change its light, and a lamp split to the
+// finest cells along its rim was hundreds of polygons for every sample (97 of 110 s on the lamp
+// room in the second phase; its first phase measured every patch again each time the emitters
+// changed).
 struct Emitter {
   std::array<Vec3, 4> q;
   Vec3 normal;
-  double emission = 0;               // luminance
-  uint32_t firstPatch = 0, lastPatch = 0;  // the patches it stands for: a range, or one patch
-  std::vector<uint32_t> patches;     // when not a range
-  bool holds(uint32_t k) const {
-    return patches.empty() ? k >= firstPatch && k <= lastPatch : std::find(patches.begin(), patches.end(), k) != patches.end();
-  }
+  double emission = 0;  // luminance
 };
 
 std::vector<Emitter> measuredEmitters(const PatchMesh& mesh) {
@@ -2195,7 +2194,7 @@ std::vector<Emitter> measuredEmitters(const PatchMesh& mesh) {
     const Patch& p = mesh.patches[k];
     if (!(luminance(p.emission) > 0)) continue;
     if (p.cell.primitive >= 0) faces[{p.cell.primitive, p.cell.face, p.backSide}].push_back(uint32_t(k));
-    else out.push_back({corners(mesh, p), p.normal, luminance(p.emission), uint32_t(k), uint32_t(k), {}});
+    else out.push_back({corners(mesh, p), p.normal, luminance(p.emission)});
   }
   for (const auto& [key, group] : faces) {
     int n = 0;
@@ -2221,11 +2220,9 @@ std::vector<Emitter> measuredEmitters(const PatchMesh& mesh) {
       const Patch& first = mesh.patches[group[0]];
       std::array<Vec3, 4> q;
       for (int e = 0; e < 4; ++e) q[e] = mesh.positions[mesh.patches[corner[e]].v[e]];
-      const auto [lo, hi] = std::minmax_element(group.begin(), group.end());
-      const bool contiguous = size_t(*hi - *lo) + 1 == group.size();  // a face's patches are made together
-      out.push_back({q, first.normal, luminance(first.emission), *lo, *hi, contiguous ? std::vector<uint32_t>{} : group});
+      out.push_back({q, first.normal, luminance(first.emission)});
     } else {
-      for (uint32_t k : group) out.push_back({corners(mesh, mesh.patches[k]), mesh.patches[k].normal, luminance(mesh.patches[k].emission), k, k, {}});
+      for (uint32_t k : group) out.push_back({corners(mesh, mesh.patches[k]), mesh.patches[k].normal, luminance(mesh.patches[k].emission)});
     }
   }
   return out;
@@ -2324,12 +2321,8 @@ Gathered gatherBounce(const BounceField& field, const Vec3& from, const Vec3& n)
 }
 
 std::vector<PatchLight> measureLight(const Scene& scene, const PatchMesh& mesh, const std::vector<uint32_t>& which,
-                                     double sky, const BounceField* bounce) {
+                                     const std::vector<Emitter>& emitters, double sky, const BounceField* bounce) {
   std::vector<PatchLight> out(which.size());
-  // In the second phase, the emitters of the field's mesh: rounds that split an emitter then
-  // neither measure every patch again nor its pieces one by one (a lamp's back split to the finest
-  // cells along its rim was hundreds of polygons for every sample, and took 97 of 110 s).
-  const std::vector<Emitter> emitters = measuredEmitters(bounce ? bounce->mesh : mesh);
   if ((emitters.empty() && scene.lights.empty() && !(sky > 0)) || which.empty()) return out;
   Occlusion occlusion(mesh);
   if (!mesh.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, mesh, patch, u, v); });
@@ -2369,11 +2362,10 @@ std::vector<PatchLight> measureLight(const Scene& scene, const PatchMesh& mesh, 
         double d = luminance(directIrradiance(scene.lights, sight, x, patch.normal)) / kPi;
         if (sky > 0) d += sky * skyOpenness(sight, patch.normal);
         for (const Emitter& source : emitters) {
-          // A patch does not light itself (second phase: the plane test below).
-          if (!bounce && (source.holds(k) || source.holds(uint32_t(patch.twin)))) continue;
           const auto& qe = source.q;
-          // Behind the emitter it sends nothing; in the second phase, a patch in its plane is a piece of it.
-          if (!(dot(source.normal, x - qe[0]) > (bounce ? occlusion.epsilon() : 0))) continue;
+          // Behind the emitter it sends nothing, and a patch in its plane is a piece of it (or of
+          // its twin): a patch does not light itself.
+          if (!(dot(source.normal, x - qe[0]) > occlusion.epsilon())) continue;
           const double factor = pointPolygonFactor(x, patch.normal, qe.data(), 4);
           if (!(factor > 0)) continue;
           const auto seen = visibleFraction(sight, patch.normal, qe, source.normal, kVisibilityPiece / 10, rays);
@@ -2501,26 +2493,22 @@ double areaMean(const PatchMesh& mesh, const std::vector<PatchLight>& light, dou
 // above the target, the budget (summary.maxPatches × budgetShare) is spent, or 40 rounds; returns
 // the measure of the mesh's patches as they are at the end.
 std::vector<PatchLight> refineRounds(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target,
-                                     double budgetShare, double sky, const BounceField* bounce, Refinement& summary) {
+                                     double budgetShare, const std::vector<Emitter>& emitters, double sky,
+                                     const BounceField* bounce, Refinement& summary) {
   constexpr int kMaxRounds = 4 * kMaxRefineLevel;
   Refinement phase;
   phase.maxPatches = size_t(double(summary.maxPatches) * budgetShare);
   std::unordered_map<PatchKey, PatchLight, WordsHash<13>> known;
-  size_t emitters = 0;
   std::vector<PatchLight> light;
   for (int round = 0;; ++round) {
-    // Measure the patches not seen before (in the first phase all of them if the emitters changed).
-    size_t emitting = 0;
-    for (const Patch& p : mesh.patches) emitting += luminance(p.emission) > 0;
-    if (emitting != emitters && !bounce) known.clear();
-    emitters = emitting;
+    // Measure the patches not seen before.
     std::vector<PatchKey> keys(mesh.patches.size());
     std::vector<uint32_t> fresh;
     for (size_t k = 0; k < mesh.patches.size(); ++k) {
       keys[k] = patchKey(mesh, mesh.patches[k]);
       if (!known.count(keys[k])) fresh.push_back(uint32_t(k));
     }
-    const std::vector<PatchLight> measured = measureLight(scene, mesh, fresh, sky, bounce);
+    const std::vector<PatchLight> measured = measureLight(scene, mesh, fresh, emitters, sky, bounce);
     for (size_t w = 0; w < fresh.size(); ++w) known[keys[fresh[w]]] = measured[w];
     light.assign(mesh.patches.size(), {});
     for (size_t k = 0; k < mesh.patches.size(); ++k) light[k] = known[keys[k]];
@@ -2555,13 +2543,15 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
   summary.maxPatches = maxPatches > 0 ? maxPatches : std::max<size_t>(20000, 4 * mesh.patches.size());
   // First the direct light, to part of the budget; then the first bounce of the mesh it left
   // (kDirectShare) is gathered at the samples too, for the rest.
-  const std::vector<PatchLight> direct = refineRounds(scene, options, mesh, target, kDirectShare, luminance(sky), nullptr, summary);
+  const std::vector<Emitter> emitters = measuredEmitters(mesh);
+  const std::vector<PatchLight> direct =
+      refineRounds(scene, options, mesh, target, kDirectShare, emitters, luminance(sky), nullptr, summary);
   const PatchMesh first = mesh;
   Occlusion occlusion(first);
   if (!first.masks.empty()) occlusion.setCutouts([&](uint32_t patch, double u, double v) { return passesCutout(scene, first, patch, u, v); });
   BounceField field{first, occlusion, {}};
   for (const PatchLight& l : direct) field.corner.push_back(l.corner);
-  refineRounds(scene, options, mesh, target, 1, luminance(sky), &field, summary);
+  refineRounds(scene, options, mesh, target, 1, emitters, luminance(sky), &field, summary);
   return summary;
 }
 
