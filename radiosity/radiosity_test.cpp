@@ -1026,7 +1026,19 @@ TEST(Refinement, SkyLightIsMeasuredToo) {
   }
 }
 
-// The same room as below at one patch a face: the lamp's back sees only the ceiling 2 cm above it,
+// A unit room (ρ 0.5, its faces with their own vertices as Blender exports a cube) lit by a
+// double-sided lamp (0.2 × 0.2, L⁰ 1) 2 cm under its ceiling.
+Scene lampRoom() {
+  Scene scene;
+  scene.materials = {material("wall", 0.5, 0), material("lamp", 0.5, 1, true)};
+  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
+  scene.primitives.push_back(quadPrimitive({Vec3{0.4, 0.98, 0.4}, {0.4, 0.98, 0.6}, {0.6, 0.98, 0.6}, {0.6, 0.98, 0.4}}, 1));
+  scene.primitives[0].primitive = 0;
+  scene.primitives[1].primitive = 1;
+  return scene;
+}
+
+// The lamp room at one patch a face: the lamp's back sees only the ceiling 2 cm above it,
 // and the light goes back and forth between them. Between two parallel plates of ρ 0.5 with
 // nothing lost at the rim, the back (emitting 1) would be 1 / (1 − ρ²) = 4/3 and the ceiling
 // 2/3 (upper bounds, but for the walls' faint light). At the centre of a 0.2-m lamp 2 cm under the
@@ -1037,12 +1049,7 @@ TEST(Refinement, SkyLightIsMeasuredToo) {
 // second phase gathers the first bounce there. Measured: 1.295 and 0.620 (a uniform 2-cm bake:
 // 1.297 and 0.624).
 TEST(Refinement, TheFirstBounceRefinesALampsBackUnderTheCeiling) {
-  Scene scene;
-  scene.materials = {material("wall", 0.5, 0), material("lamp", 0.5, 1, true)};
-  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
-  scene.primitives.push_back(quadPrimitive({Vec3{0.4, 0.98, 0.4}, {0.4, 0.98, 0.6}, {0.6, 0.98, 0.6}, {0.6, 0.98, 0.4}}, 1));
-  scene.primitives[0].primitive = 0;
-  scene.primitives[1].primitive = 1;
+  const Scene scene = lampRoom();
   TessellateOptions t;
   PatchMesh mesh = tessellate(scene, t);
   refineMesh(scene, t, mesh, 0.02, 2000);
@@ -1057,20 +1064,13 @@ TEST(Refinement, TheFirstBounceRefinesALampsBackUnderTheCeiling) {
   EXPECT_LT(ceiling, 2.0 / 3 + 0.01);  // (the walls add about 1%)
 }
 
-// A unit room (ρ 0.5, its faces with their own vertices as Blender exports a cube) lit by a
-// double-sided lamp (0.2 × 0.2, L⁰ 1) 2 cm under its ceiling, hierarchical against exact at 12×12
-// patches a face: the bounds, RMS ≤ 0.5% and largest ≤ 3% of the mean radiance. The ceiling
-// above the lamp is 3.4 times the mean and sees the walls only through the slit between them.
+// The lamp room, hierarchical against exact at 12×12 patches a face: the bounds, RMS ≤ 0.5%
+// and largest ≤ 3% of the mean radiance. The ceiling above the lamp is 3.4 times the mean and sees the walls only through the slit between them.
 // Links judged by their factor alone, a faint link made on probes from elsewhere in its group, and
 // closure over the whole row each put it off (0.83% RMS and 4.4% largest until the third session
 // of 2026-12-03; docs/radiosity.md, "Refinement by light").
 TEST(Hierarchical, ALampUnderTheCeilingAgreesWithExactTransport) {
-  Scene scene;
-  scene.materials = {material("wall", 0.5, 0), material("lamp", 0.5, 1, true)};
-  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
-  scene.primitives.push_back(quadPrimitive({Vec3{0.4, 0.98, 0.4}, {0.4, 0.98, 0.6}, {0.6, 0.98, 0.6}, {0.6, 0.98, 0.4}}, 1));
-  scene.primitives[0].primitive = 0;
-  scene.primitives[1].primitive = 1;
+  const Scene scene = lampRoom();
   TessellateOptions t;
   t.subdivide = 12;
   const PatchMesh mesh = tessellate(scene, t);
