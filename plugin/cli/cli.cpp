@@ -494,8 +494,8 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("--texel-size", o.texelSize, "lightmap texel size in scene units (default: the finest that fits)")
       ->check(finiteIn(1e-30, 1e30, "a positive length"));
   bakeCmd->add_option("--exposure", o.exposure,
-                      "exposure in EV for COLOR_0 and previews, -64 to 64 (default: automatic, the 90th percentile of lit "
-                      "surfaces at 0.8)")
+                      "exposure in EV for COLOR_0 and previews, -64 to 64 (default: automatic, the 90th percentile by area "
+                      "of lit surfaces at 0.8)")
       ->check(finiteIn(-64, 64, "an exposure from -64 to 64 EV"));
   bakeCmd->add_option("--view", o.view, "OCIO view for COLOR_0 (built in: \"ACES 1.0 SDR-video\" (default), \"Standard\")");
   bakeCmd->add_option("--display", o.display, "OCIO display for COLOR_0 (built in: \"sRGB\")");
