@@ -11,7 +11,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <numeric>
 #include <unordered_map>
 #include <span>
 #include <string>
@@ -2152,16 +2151,19 @@ struct PatchLight {
 constexpr double kNearRadius = 0.05;
 // The share of S × S fixed, cosine-distributed directions that leave `radius` without hitting
 // anything: stratified in (r², φ) on the unit disc, projected up (Malley's method).
+// Direction k of S × S such fixed cosine-distributed directions around n (t, b: its tangent frame).
+template <int S>
+Vec3 malleyDirection(int k, const Vec3& t, const Vec3& b, const Vec3& n) {
+  const double u = (k / S + 0.5) / S, phi = 2 * kPi * ((k % S) + 0.5 * (k / S % 2) + 0.25) / S;
+  const double r = std::sqrt(u), h = std::sqrt(std::max(0.0, 1 - u));
+  return t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * h;
+}
 template <int S>
 double openness(const Sight& sight, const Vec3& n, double radius) {
   const auto [t, b] = tangentFrame(n);
   constexpr int kRays = S * S;
   std::array<Vec3, kRays> to;
-  for (int k = 0; k < kRays; ++k) {
-    const double u = (k / S + 0.5) / S, phi = 2 * kPi * ((k % S) + 0.5 * (k / S % 2) + 0.25) / S;
-    const double r = std::sqrt(u), h = std::sqrt(std::max(0.0, 1 - u));
-    to[k] = sight.from + (t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * h) * radius;
-  }
+  for (int k = 0; k < kRays; ++k) to[k] = sight.from + malleyDirection<S>(k, t, b, n) * radius;
   int through = 0;
   for (int first = 0; first < kRays; first += 16) {  // visibleAll takes up to 16
     bool seen[16];
@@ -2296,9 +2298,7 @@ Gathered gatherBounce(const BounceField& field, const Vec3& from, const Vec3& n)
   const double reach = 2 * field.occlusion.sceneSize();
   double sum = 0, squares = 0;
   for (int k = 0; k < kRays; ++k) {
-    const double u = (k / S + 0.5) / S, phi = 2 * kPi * ((k % S) + 0.5 * (k / S % 2) + 0.25) / S;
-    const double r = std::sqrt(u), h = std::sqrt(std::max(0.0, 1 - u));
-    const Vec3 d = t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * h;
+    const Vec3 d = malleyDirection<S>(k, t, b, n);
     int64_t hit = field.occlusion.firstHit(from, from + d * reach);
     if (hit < 0) continue;  // the sky is direct light
     // Both sides of a double-sided surface are patches in one place: the one facing the ray's
