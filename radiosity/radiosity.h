@@ -90,8 +90,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
 // interpolation of the direct light from emitting patches, punctual lights and a uniform `sky`
 // (RadiosityOptions::sky) misses it at a patch's centre and edge midpoints, times ρ, relative to
 // the scene's area-weighted mean of that light) and splits the cells of those above `target`, most
-// squared error over area first, while the budget lasts (`maxPatches`; 0: 4× the starting
-// patches, at least 20,000); tessellate balances and closes the splits. Once no cell is above the
+// squared error over area first, while the budget lasts (`maxPatches`; 0: the starting
+// patches plus 20,000); tessellate balances and closes the splits. Once no cell is above the
 // target or half the budget is spent, the light those surfaces reflect once is gathered at the
 // samples too (64 rays each, from the mesh the first phase left), so a patch lit only by other surfaces (a lamp's back 2 cm under a ceiling)
 // is split where that light changes. `mesh` is replaced by the refined one and `options.split`

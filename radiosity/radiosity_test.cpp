@@ -843,6 +843,32 @@ TEST(Visibility, ALargeEmitterIsSeenAroundAPlateBelowIt) {
 // Adaptive refinement keeps a furnace exact: cells split to different depths on a box made the way
 // Blender exports a cube (own vertices per face, N = 3), with 2:1 balance across its edges and fans
 // of triangles beside finer cells, is still closed (every unknown enclosed) and L = 2 everywhere.
+// A closed emitting box of reflectance ρ has L = L⁰ / (1 − ρ) everywhere. At ρ = 0.995 Jacobi needs
+// about 2,800 iterations and gets there (the early stop must not cut it); at ρ = 1 there is no
+// steady state, and the solve stops once its residual's fall could not reach the goal within
+// maxIterations (it ran all 10,000 before: minutes at the 20k patches a default bake refines to).
+TEST(Solver, ASolveWithoutSteadyStateStopsEarlyAndASlowOneIsNotCut) {
+  for (const double rho : {0.995, 1.0}) {
+    Scene scene;
+    scene.materials = {material("furnace", rho, 1)};
+    scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
+    TessellateOptions t;
+    t.subdivide = 2;
+    const PatchMesh mesh = tessellate(scene, t);
+    RadiosityOptions o;
+    o.transport = TransportMode::kExact;
+    const Solution s = solveRadiosity(scene, mesh, o);
+    if (rho < 1) {
+      EXPECT_TRUE(s.converged) << s.iterations << " iterations, residual " << s.residual;
+      EXPECT_GT(s.iterations, 2000);
+      for (const Vec3& L : s.vertexRadiance) EXPECT_NEAR(L.x, 200, 200 * 1e-3);
+    } else {
+      EXPECT_FALSE(s.converged);
+      EXPECT_LT(s.iterations, 500);
+    }
+  }
+}
+
 TEST(Refinement, AFurnaceStaysExactWithRefinedCellsAndFans) {
   Scene scene;
   scene.materials = {material("furnace", 0.5, 1)};
@@ -1069,6 +1095,22 @@ TEST(Refinement, TheFirstBounceRefinesALampsBackUnderTheCeiling) {
 // Links judged by their factor alone, a faint link made on probes from elsewhere in its group, and
 // closure over the whole row each put it off (0.83% RMS and 4.4% largest until the third session
 // of 2026-12-03; docs/radiosity.md, "Refinement by light").
+// Radiance is never negative. The far links' fields are first-order expansions; at floor vertices
+// deep under the Cornell box's blocks, which refinement gives patches of their own, they summed to
+// -3e-5 (at 3,000 patches; -5e-4, 0.8% of the mean, at 20k) where the exact rows give 0.
+TEST(Hierarchical, ARefinedCornellBoxHasNoNegativeRadiance) {
+  const Scene scene = importScene((kScenes / "cornell_box.gltf").string());
+  TessellateOptions t;
+  PatchMesh mesh = tessellate(scene, t);
+  refineMesh(scene, t, mesh, 0.02, 3000);
+  RadiosityOptions o;
+  o.transport = TransportMode::kHierarchical;
+  const Solution s = solveRadiosity(scene, mesh, o);
+  int negative = 0;
+  for (const Vec3& L : s.vertexRadiance) negative += L.x < 0 || L.y < 0 || L.z < 0;
+  EXPECT_EQ(negative, 0) << "of " << s.vertexRadiance.size() << " vertices";
+}
+
 TEST(Hierarchical, ALampUnderTheCeilingAgreesWithExactTransport) {
   const Scene scene = lampRoom();
   TessellateOptions t;

@@ -308,7 +308,7 @@ INSTANTIATE_TEST_SUITE_P(ScenesAndAssets, RoundTrip, ::testing::ValuesIn(roundTr
 TEST(RoundTrip, InstancedMeshGetsOneBakePerNode) {
   // nested_nodes.gltf: one mesh placed by six nodes.
   const fs::path out = tempDir() / "nested.glb";
-  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "nested_nodes.gltf").string(), "-o", out.string(), "-q"}).code, 0);
+  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "nested_nodes.gltf").string(), "-o", out.string(), "--subdivide", "1", "-q"}).code, 0);
   tinygltf::Model in, m;
   ASSERT_TRUE(loadModel(kTestData / "scenes" / "nested_nodes.gltf", &in));
   ASSERT_TRUE(loadModel(out, &m));
@@ -356,7 +356,7 @@ TEST(Bake, WrittenRadianceIsTheSolutionBitForBitAndReimports) {
   }
   EXPECT_GT(compared, 300u);
   // The baked file is itself valid input (unlit materials and all): it bakes again.
-  EXPECT_EQ(radbake({"bake", out.string(), "-o", (tempDir() / "again.glb").string(), "-q"}).code, 0);
+  EXPECT_EQ(radbake({"bake", out.string(), "-o", (tempDir() / "again.glb").string(), "--subdivide", "1", "-q"}).code, 0);
 }
 
 TEST(Bake, FurnaceRadianceIsTwoInTheWrittenFile) {
@@ -405,8 +405,8 @@ TEST(Bake, ConstantMethodIsWrittenFlatShaded) {
 
 TEST(Bake, TwoBakesAreBitIdentical) {
   const fs::path first = tempDir() / "cornell_first.glb", second = tempDir() / "cornell_second.glb";
-  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", first.string(), "-q"}).code, 0);
-  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", second.string(), "-q"}).code, 0);
+  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", first.string(), "--max-patches", "1500", "-q"}).code, 0);
+  ASSERT_EQ(radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", second.string(), "--max-patches", "1500", "-q"}).code, 0);
   tinygltf::Model a, b;
   ASSERT_TRUE(loadModel(first, &a));
   ASSERT_TRUE(loadModel(second, &b));
@@ -458,12 +458,56 @@ TEST(Bake, RefinedBakeValidatesAndReports) {
   const RunResult constant = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--refine", "0.05", "--method", "constant"});
   EXPECT_EQ(constant.code, 1);
   EXPECT_EQ(constant.err, "error: radbake: --refine works with the bilinear method only (constant patches are shown flat)\n");
-  const RunResult budget = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--max-patches", "100"});
-  EXPECT_EQ(budget.code, 1);
-  EXPECT_EQ(budget.err, "error: radbake: --max-patches is the budget of --refine; give --refine too\n");
-  const RunResult zero = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--refine", "0"});
-  EXPECT_EQ(zero.code, 1);
+  for (const std::vector<std::string>& off : {std::vector<std::string>{"--subdivide", "2"}, {"--max-edge", "0.1"}, {"--refine", "off"}}) {
+    std::vector<std::string> args{"bake", in, "-o", (tempDir() / "c.glb").string(), "--max-patches", "100"};
+    args.insert(args.end(), off.begin(), off.end());
+    const RunResult budget = radbake(args);
+    EXPECT_EQ(budget.code, 1) << off[0];
+    EXPECT_EQ(budget.err, "error: radbake: --max-patches is the budget of --refine, which is off (with --subdivide or "
+                          "--max-edge it is on only when given)\n");
+  }
+  for (const char* bad : {"0", "2", "of", "nan"}) {
+    const RunResult r = radbake({"bake", in, "-o", (tempDir() / "c.glb").string(), "--refine", bad});
+    EXPECT_EQ(r.code, 1) << bad;
+    EXPECT_NE(r.err.find("--refine: expected off or a relative error from 1e-6 to 1, got " + std::string(bad)), std::string::npos) << r.err;
+  }
   EXPECT_FALSE(fs::exists(tempDir() / "c.glb"));
+}
+
+// Refinement is the default (issue 17): a bake given no tessellation option refines to 0.02 within
+// its default budget (the starting patches plus 20,000), and says nothing about that budget; a
+// uniform mesh asked for (--subdivide, --max-edge), --refine off and the constant method are not
+// refined; --refine with --subdivide refines from that start.
+TEST(Bake, RefinementIsTheDefault) {
+  const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
+  const fs::path report = tempDir() / "default.json";
+  auto bake = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"bake", in, "-o", (tempDir() / "default.glb").string(), "--report", report.string(), "--progress", "none"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const RunResult r = radbake(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err, "");  // no warning: the budget is the default's time limit, not a missed target
+    return json::parse(std::ifstream(report));
+  };
+  const json byDefault = bake({"--max-patches", "800"});
+  EXPECT_GT(byDefault["refinement"]["rounds"].get<int>(), 2) << byDefault["refinement"];
+  EXPECT_EQ(byDefault["refinement"]["target"].get<double>(), 0.02);
+  EXPECT_TRUE(byDefault["refinement"]["budgetReached"].get<bool>());
+  EXPECT_GT(byDefault["counts"]["patches"].get<int>(), 700);
+  for (const std::vector<std::string>& uniform : {std::vector<std::string>{"--subdivide", "2"}, {"--max-edge", "1000"}, {"--refine", "off"},
+                                                  {"--method", "constant"}}) {
+    const json j = bake(uniform);
+    EXPECT_TRUE(j["refinement"].is_null()) << uniform[0] << ": " << j["refinement"];
+    EXPECT_EQ(j["counts"]["patches"].get<int>(), uniform[1] == "2" ? 4 * 24 : 24) << uniform[0];
+  }
+  // Asked for by name, from 4 × 4, a target the budget stops short of is a warning.
+  const RunResult asked = radbake({"bake", in, "-o", (tempDir() / "default.glb").string(), "--subdivide", "4", "--refine", "0.05",
+                                   "--max-patches", "800", "--report", report.string(), "--progress", "none"});
+  EXPECT_EQ(asked.code, 0) << asked.err;
+  EXPECT_NE(asked.err.find("warning: cornell_box.gltf: --refine stopped at the patch budget ("), std::string::npos) << asked.err;
+  const json fromFour = json::parse(std::ifstream(report));
+  EXPECT_EQ(fromFour["refinement"]["target"].get<double>(), 0.05);
+  EXPECT_GT(fromFour["counts"]["patches"].get<int>(), 16 * 24);
 }
 
 // Broken on purpose: exit 2, one line naming the file and the element, nothing written.
@@ -791,7 +835,8 @@ TEST(BadInput, LightThatDoesNotBalanceInAClosedSceneIsAWarning) {
     EXPECT_NE(r.err.find("refine with --subdivide or --max-edge, or tighten --accuracy", at), std::string::npos) << r.err;
   }
   for (const char* scene : {"floor_emitter_cube.gltf", "cornell_box.gltf"}) {
-    const RunResult r = radbake({"bake", (kTestData / "scenes" / scene).string(), "-o", (tempDir() / "ok.glb").string(), "--progress", "none"});
+    const RunResult r = radbake({"bake", (kTestData / "scenes" / scene).string(), "-o", (tempDir() / "ok.glb").string(), "--subdivide", "1",
+                                 "--progress", "none"});
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(r.err.find("does not balance"), std::string::npos) << scene << ": " << r.err;
   }
@@ -1085,7 +1130,7 @@ TEST(Fuzz, CrashesFoundByFuzzingStayFixed) {
 
 TEST(Cli, SceneChoosesTheGltfScene) {
   const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
-  EXPECT_EQ(radbake({"bake", in, "-o", (tempDir() / "s0.glb").string(), "--scene", "0", "-q"}).code, 0);
+  EXPECT_EQ(radbake({"bake", in, "-o", (tempDir() / "s0.glb").string(), "--scene", "0", "--subdivide", "1", "-q"}).code, 0);
   const RunResult r = radbake({"bake", in, "-o", (tempDir() / "s3.glb").string(), "--scene", "3"});
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "error: cornell_box.gltf: --scene 3: the file has 1 scenes\n");
@@ -1116,7 +1161,7 @@ TEST(Cli, TransportDefaultsToHierarchical) {
     return solver["transport"].get<std::string>();
   };
   EXPECT_EQ(transport({"--subdivide", "8"}), "hierarchical");
-  EXPECT_EQ(transport({"--transport", "exact"}), "exact");
+  EXPECT_EQ(transport({"--transport", "exact", "--subdivide", "4"}), "exact");
   EXPECT_EQ(transport({"--method", "constant", "--subdivide", "8"}), "hierarchical");
   EXPECT_EQ(transport({"--method", "constant", "--transport", "exact"}), "exact");
 }
@@ -1218,7 +1263,7 @@ TEST(Display, AConfigFileIsHonoured) {
   const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
   for (bool viaEnvironment : {false, true}) {
     const fs::path out = dir / (viaEnvironment ? "env.glb" : "flag.glb");
-    std::vector<std::string> args{"bake", in, "-o", out.string(), "--exposure", "0.5", "-q"};
+    std::vector<std::string> args{"bake", in, "-o", out.string(), "--exposure", "0.5", "--subdivide", "1", "-q"};
     if (viaEnvironment) {
       setenv("OCIO", options.config.c_str(), 1);
     } else {
@@ -1270,7 +1315,7 @@ TEST(Display, CornellColorsAreTheStandardViewAndMaterialsUnlit) {
   const fs::path dir = tempDir();
   const fs::path out = dir / "standard.glb", report = dir / "standard.json";
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
-                               "--view", "Standard", "--exposure", "1", "--report", report.string(), "-q"});
+                               "--view", "Standard", "--exposure", "1", "--subdivide", "1", "--report", report.string(), "-q"});
   ASSERT_EQ(r.code, 0) << r.err;
   tinygltf::Model m;
   ASSERT_TRUE(loadModel(out, &m));
@@ -1294,7 +1339,7 @@ TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileByAreaAtTheTarget) {
   const fs::path dir = tempDir();
   const fs::path out = dir / "auto.glb", report = dir / "auto.json";
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
-                               "--report", report.string()});
+                               "--max-patches", "1500", "--report", report.string()});
   ASSERT_EQ(r.code, 0) << r.err;
   tinygltf::Model m;
   ASSERT_TRUE(loadModel(out, &m));
@@ -1327,6 +1372,10 @@ TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileByAreaAtTheTarget) {
         total += 3 * a;
       }
     }
+  // Lit surfaces only: refined, the floor has vertices deep under the blocks, black.
+  std::erase_if(luminance, [](const auto& entry) { return !(entry.first > 0); });
+  total = 0;
+  for (const auto& [y, a] : luminance) total += a;
   std::sort(luminance.begin(), luminance.end());
   double p90 = 0;
   for (double below = 0; const auto& [y, a] : luminance)
@@ -1417,7 +1466,7 @@ TEST(Progress, JsonLinesNameEachStage) {
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "furnace_cube.gltf").string(), "-o",
                                (tempDir() / "progress.glb").string(), "--progress", "json"});
   ASSERT_EQ(r.code, 0) << r.err;
-  for (const char* stage : {"import", "tessellate", "solve", "export"})
+  for (const char* stage : {"import", "tessellate", "refine", "solve", "export"})
     EXPECT_NE(r.err.find(std::string("{\"progress\":0.0,\"stage\":\"") + stage + "\"}"), std::string::npos) << r.err;
 }
 
@@ -1666,14 +1715,14 @@ TEST(LightmapOutput, AFailedWriteLeavesNothingAndBadNamesAreUsageErrors) {
   const fs::path dir = tempDir();
   const std::string in = (kTestData / "scenes" / "cornell_box.gltf").string();
   const fs::path out = dir / "nowhere.glb";
-  RunResult r = radbake({"bake", in, "-o", out.string(), "--lightmap", (dir / "missing" / "lm.exr").string()});
+  RunResult r = radbake({"bake", in, "-o", out.string(), "--subdivide", "1", "--lightmap", (dir / "missing" / "lm.exr").string()});
   EXPECT_EQ(r.code, 4);
   EXPECT_NE(r.err.find("lm.exr: cannot write: directory"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));  // the glTF is not left without its lightmap
   r = radbake({"bake", in, "-o", out.string(), "--lightmap", (dir / "lm.png").string()});
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("--lightmap " + (dir / "lm.png").string() + " must end in .exr"), std::string::npos) << r.err;
-  r = radbake({"bake", in, "-o", out.string(), "--lightmap", (dir / "lm.exr").string(), "--texel-size", "0.001",
+  r = radbake({"bake", in, "-o", out.string(), "--subdivide", "1", "--lightmap", (dir / "lm.exr").string(), "--texel-size", "0.001",
                "--lightmap-size", "64"});
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("64x64 allowed"), std::string::npos) << r.err;
@@ -2229,7 +2278,7 @@ TEST(Meshopt, FallbackBuffersAreNotNeededAndKhrMeshoptReadsItsFallback) {
   auto bakeClean = [&](const fs::path& in, const char* extension) {
     SCOPED_TRACE(in.string());
     const fs::path out = dir / (in.stem().string() + "_baked.gltf");
-    const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--progress", "none"});
+    const RunResult r = radbake({"bake", in.string(), "-o", out.string(), "--subdivide", "1", "--progress", "none"});
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(r.err, "");
     EXPECT_EQ(readJson(out).dump().find(extension), std::string::npos);

@@ -21,7 +21,10 @@ struct Options {
   int subdivide = 1;
   double maxEdge = 0;
   double maxChord = 0;
-  std::optional<double> refine;     // --refine E: adaptive refinement to this relative error of the direct light
+  // --refine E: adaptive refinement to this relative error of the light; the default (0.02) unless
+  // --refine off, the constant method, or a uniform mesh asked for with --subdivide or --max-edge.
+  std::optional<double> refine;
+  bool refineByDefault = false;     // on without being asked for: its budget is no reason to warn
   size_t maxPatches = 0;            // --max-patches: the refinement's budget (0: the default)
   std::string subdivisionSurfaces;  // "", "catmull-clark" or "loop"
   int scene = -1;                   // --scene N

@@ -40,19 +40,22 @@ class RadbakeSettings(bpy.types.PropertyGroup):
     method: bpy.props.EnumProperty(name="Method", items=(
         ("bilinear", "Bilinear", "Bilinear vertex radiosity (smooth, exact at vertices)"),
         ("constant", "Constant", "Classic constant patches (the baseline)")), default="bilinear")
+    # Adaptive by default, as radbake's own default: uniform patches leave a Blender room with a
+    # ceiling light several times too dark unless they are made very fine.
     refine: bpy.props.EnumProperty(name="Refine", items=(
-        ("SUBDIVIDE", "Subdivide", "Split every face into N×N patches"),
-        ("MAX_EDGE", "Max edge", "Refine until no patch edge is longer than a length"),
         ("ADAPTIVE", "Adaptive", "Split patches where the light changes (the direct light, then its first bounce) "
-                                 "until the error is below a target or a patch budget is spent (bilinear method)")),
-        default="SUBDIVIDE")
+                                 "until the error is below a target or a patch budget is spent (bilinear method; "
+                                 "the constant method takes Subdivide's N)"),
+        ("SUBDIVIDE", "Subdivide", "Split every face into N×N patches"),
+        ("MAX_EDGE", "Max edge", "Refine until no patch edge is longer than a length")),
+        default="ADAPTIVE")
     subdivide: bpy.props.IntProperty(name="Subdivide", default=4, min=1, max=64)
     max_edge: bpy.props.FloatProperty(name="Max edge", default=0.25, min=1e-4, subtype='DISTANCE')
     refine_target: bpy.props.FloatProperty(name="Target error", default=0.02, min=1e-6, max=1.0, precision=3,
                                            description="Largest error of the bilinear field, as a share of the mean light")
     max_patches: bpy.props.IntProperty(name="Patch budget", default=0, min=0,
                                        description="Stop splitting at about this many patches "
-                                                   "(0: 4× the starting patches, at least 20000)")
+                                                   "(0: radbake's default, the starting patches plus 20000)")
     exposure_auto: bpy.props.BoolProperty(name="Auto exposure", default=True)
     exposure: bpy.props.FloatProperty(name="Exposure (EV)", default=0.0, soft_min=-10, soft_max=10)
     view: bpy.props.EnumProperty(name="View", items=VIEWS, default="ACES 1.0 SDR-video")

@@ -33,8 +33,9 @@ def build_command(radbake, input_path, output_path, settings, lightmap_path=None
             "--method", settings["method"]]
     if settings["refine"] == "MAX_EDGE":
         args += ["--max-edge", repr(float(settings["max_edge"]))]
-    elif settings["refine"] == "ADAPTIVE":
-        # From one patch a face: refinement puts the patches where the light changes.
+    elif settings["refine"] == "ADAPTIVE" and settings["method"] == "bilinear":
+        # From one patch a face: refinement puts the patches where the light changes. (Constant
+        # patches are shown flat and not refined: they take the subdivision below.)
         args += ["--refine", repr(float(settings["refine_target"]))]
         if int(settings.get("max_patches", 0)) > 0:
             args += ["--max-patches", str(int(settings["max_patches"]))]

@@ -129,6 +129,7 @@ check(not bpy.context.window_manager.radbake_state.is_baking, "no bake left runn
 # ---- 3. lightmap: the second UV map reads each corner's own light
 objects = load_cornell()
 settings = bpy.context.scene.radbake
+settings.refine = 'SUBDIVIDE'
 settings.subdivide = 4
 settings.output = 'LIGHTMAP'
 settings.lightmap_size = 256

@@ -154,6 +154,7 @@ def follow_bake(samples, until=None):
 
 def part_a():
     objects = load_cornell()
+    bpy.context.scene.radbake.refine = 'SUBDIVIDE'
     bpy.context.scene.radbake.subdivide = MODAL_SUBDIVIDE
     dirs = temp_dirs()
     result, blocked = start_bake()
@@ -201,6 +202,7 @@ def part_a():
 
 def cancel_test(label, how):
     load_cornell()
+    bpy.context.scene.radbake.refine = 'SUBDIVIDE'
     bpy.context.scene.radbake.subdivide = CANCEL_SUBDIVIDE
     before = snapshot()
     dirs = temp_dirs()
@@ -257,6 +259,7 @@ def cancel_with_esc():
 def part_c():
     load_cornell()
     scene = bpy.context.scene
+    scene.radbake.refine = 'SUBDIVIDE'
     scene.radbake.subdivide = SUBDIVIDE
     scene.radbake.replace_objects = True  # the tessellated mesh carries the light of every patch
     result, _ = start_bake()
@@ -399,6 +402,7 @@ def part_d():
     """File > New while a bake runs: Blender ends the modal operator (its cancel()); radbake must
     stop with it and its temporary folder go, and a new bake must be possible."""
     load_cornell()
+    bpy.context.scene.radbake.refine = 'SUBDIVIDE'
     bpy.context.scene.radbake.subdivide = CANCEL_SUBDIVIDE
     dirs = temp_dirs()
     result, _ = start_bake()

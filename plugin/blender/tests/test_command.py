@@ -60,6 +60,10 @@ class BuildCommand(unittest.TestCase):
         self.assertNotIn("--max-edge", args)
         args = command.build_command("radbake", "in.glb", "out.glb", dict(s, max_patches=8000))
         self.assertEqual(args[args.index("--max-patches") + 1], "8000")
+        # The constant method is not refined (radbake refuses --refine with it): Subdivide's N.
+        args = command.build_command("radbake", "in.glb", "out.glb", dict(s, method="constant"))
+        self.assertNotIn("--refine", args)
+        self.assertEqual(args[args.index("--subdivide") + 1], "4")
 
 
 class Progress(unittest.TestCase):
