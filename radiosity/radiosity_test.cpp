@@ -848,16 +848,15 @@ TEST(Visibility, ALargeEmitterIsSeenAroundAPlateBelowIt) {
 // steady state, and the solve stops once its residual's fall could not reach the goal within
 // maxIterations (it ran all 10,000 before: minutes at the 20k patches a default bake refines to).
 TEST(Solver, ASolveWithoutSteadyStateStopsEarlyAndASlowOneIsNotCut) {
+  TessellateOptions twoByTwo;
+  twoByTwo.subdivide = 2;
+  RadiosityOptions exact;
+  exact.transport = TransportMode::kExact;
   for (const double rho : {0.995, 1.0}) {
     Scene scene;
     scene.materials = {material("furnace", rho, 1)};
     scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
-    TessellateOptions t;
-    t.subdivide = 2;
-    const PatchMesh mesh = tessellate(scene, t);
-    RadiosityOptions o;
-    o.transport = TransportMode::kExact;
-    const Solution s = solveRadiosity(scene, mesh, o);
+    const Solution s = solveRadiosity(scene, tessellate(scene, twoByTwo), exact);
     if (rho < 1) {
       EXPECT_TRUE(s.converged) << s.iterations << " iterations, residual " << s.residual;
       EXPECT_GT(s.iterations, 2000);
@@ -1064,6 +1063,17 @@ Scene lampRoom() {
   return scene;
 }
 
+// `scene` from one patch a face refined to 0.02 within `budget` patches (into `mesh`), solved with
+// the hierarchical transport: what a default bake does.
+Solution refinedBake(const Scene& scene, size_t budget, PatchMesh& mesh) {
+  TessellateOptions t;
+  mesh = tessellate(scene, t);
+  refineMesh(scene, t, mesh, 0.02, budget);
+  RadiosityOptions o;
+  o.transport = TransportMode::kHierarchical;
+  return solveRadiosity(scene, mesh, o);
+}
+
 // The lamp room at one patch a face: the lamp's back sees only the ceiling 2 cm above it,
 // and the light goes back and forth between them. Between two parallel plates of ρ 0.5 with
 // nothing lost at the rim, the back (emitting 1) would be 1 / (1 − ρ²) = 4/3 and the ceiling
@@ -1076,12 +1086,8 @@ Scene lampRoom() {
 // 1.297 and 0.624).
 TEST(Refinement, TheFirstBounceRefinesALampsBackUnderTheCeiling) {
   const Scene scene = lampRoom();
-  TessellateOptions t;
-  PatchMesh mesh = tessellate(scene, t);
-  refineMesh(scene, t, mesh, 0.02, 2000);
-  RadiosityOptions o;
-  o.transport = TransportMode::kHierarchical;
-  const Solution s = solveRadiosity(scene, mesh, o);
+  PatchMesh mesh;
+  const Solution s = refinedBake(scene, 2000, mesh);
   const double back = evaluateRadiance(s, mesh, {0.5, 0.98, 0.5}, {0, 1, 0}).x;
   const double ceiling = evaluateRadiance(s, mesh, {0.5, 1, 0.5}, {0, -1, 0}).x;
   EXPECT_GT(back, 1.28);
@@ -1090,27 +1096,22 @@ TEST(Refinement, TheFirstBounceRefinesALampsBackUnderTheCeiling) {
   EXPECT_LT(ceiling, 2.0 / 3 + 0.01);  // (the walls add about 1%)
 }
 
-// The lamp room, hierarchical against exact at 12×12 patches a face: the bounds, RMS ≤ 0.5%
-// and largest ≤ 3% of the mean radiance. The ceiling above the lamp is 3.4 times the mean and sees the walls only through the slit between them.
-// Links judged by their factor alone, a faint link made on probes from elsewhere in its group, and
-// closure over the whole row each put it off (0.83% RMS and 4.4% largest until the third session
-// of 2026-12-03; docs/radiosity.md, "Refinement by light").
 // Radiance is never negative. The far links' fields are first-order expansions; at floor vertices
 // deep under the Cornell box's blocks, which refinement gives patches of their own, they summed to
 // -3e-5 (at 3,000 patches; -5e-4, 0.8% of the mean, at 20k) where the exact rows give 0.
 TEST(Hierarchical, ARefinedCornellBoxHasNoNegativeRadiance) {
-  const Scene scene = importScene((kScenes / "cornell_box.gltf").string());
-  TessellateOptions t;
-  PatchMesh mesh = tessellate(scene, t);
-  refineMesh(scene, t, mesh, 0.02, 3000);
-  RadiosityOptions o;
-  o.transport = TransportMode::kHierarchical;
-  const Solution s = solveRadiosity(scene, mesh, o);
+  PatchMesh mesh;
+  const Solution s = refinedBake(importScene((kScenes / "cornell_box.gltf").string()), 3000, mesh);
   int negative = 0;
   for (const Vec3& L : s.vertexRadiance) negative += L.x < 0 || L.y < 0 || L.z < 0;
   EXPECT_EQ(negative, 0) << "of " << s.vertexRadiance.size() << " vertices";
 }
 
+// The lamp room, hierarchical against exact at 12×12 patches a face: the bounds, RMS ≤ 0.5%
+// and largest ≤ 3% of the mean radiance. The ceiling above the lamp is 3.4 times the mean and sees the walls only through the slit between them.
+// Links judged by their factor alone, a faint link made on probes from elsewhere in its group, and
+// closure over the whole row each put it off (0.83% RMS and 4.4% largest until the third session
+// of 2026-12-03; docs/radiosity.md, "Refinement by light").
 TEST(Hierarchical, ALampUnderTheCeilingAgreesWithExactTransport) {
   const Scene scene = lampRoom();
   TessellateOptions t;
