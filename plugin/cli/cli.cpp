@@ -478,9 +478,12 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("-o,--output", o.output, "output file (.glb or .gltf)")->required();
   bakeCmd->add_option("--method", o.method, "bilinear (default): vertex radiosity; constant: classic constant patches")
       ->check(CLI::IsMember({"bilinear", "constant"}));
-  bakeCmd->add_option("--subdivide", o.subdivide, "split every input face into N×N patches (default 1)")
+  bakeCmd->add_option("--subdivide", o.subdivide,
+                      "a uniform mesh: every input face split into N×N patches (refined further only with --refine)")
       ->check(CLI::Range(1, 4096));
-  bakeCmd->add_option("--max-edge", o.maxEdge, "refine until no patch edge is longer than LENGTH (scene units)")
+  bakeCmd->add_option("--max-edge", o.maxEdge,
+                      "a uniform mesh: faces split until no patch edge is longer than LENGTH (scene units; refined "
+                      "further only with --refine)")
       ->check(finiteIn(1e-30, 1e30, "a positive length"));
   std::string refine;
   bakeCmd->add_option("--refine", refine,
