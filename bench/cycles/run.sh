@@ -28,6 +28,9 @@ REF_SAMPLES=${REF_SAMPLES:-2048}
 M=${M:-13}
 TAU=${TAU:-0.0025}
 py=/usr/bin/python3
+# The analysis needs these; fail now, not after the runs (a fresh machine has only what the tests need).
+$py -c "import numpy, scipy, matplotlib" 2>/dev/null ||
+  { echo "bench/cycles: needs python3-numpy python3-scipy python3-matplotlib (apt-get install them)" >&2; exit 1; }
 out=bench/cycles/out
 rm -rf "$out"; mkdir -p "$out/radbake" "$out/cycles" docs/images
 load() { cut -d' ' -f1-3 /proc/loadavg; }
