@@ -2163,17 +2163,18 @@ struct PatchLight {
 // has no direct light on either side, and only this sees it (Cornell box, floor points 1.3 cm
 // from a block in its shadow: −37% refined by the direct light alone, −2% at a uniform N = 24).
 constexpr double kNearRadius = 0.05;
-// The share of S × S fixed, cosine-distributed directions that leave `radius` without hitting
-// anything: stratified in (r², φ) on the unit disc, projected up (Malley's method).
-// Direction k of S × S such fixed cosine-distributed directions around n (t, b: its tangent frame).
+// Direction k of S × S fixed cosine-distributed directions around n (t, b: its tangent frame):
+// stratified in (r², φ) on the unit disc, projected up (Malley's method).
 template <int S>
 Vec3 malleyDirection(int k, const Vec3& t, const Vec3& b, const Vec3& n) {
   const double u = (k / S + 0.5) / S, phi = 2 * kPi * ((k % S) + 0.5 * (k / S % 2) + 0.25) / S;
   const double r = std::sqrt(u), h = std::sqrt(std::max(0.0, 1 - u));
   return t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * h;
 }
+// The share of S × S such directions that leave `radius` without hitting anything or, with
+// `glowIsOpen`, hit an emitting surface first (it brings light, not shade).
 template <int S>
-double openness(const Sight& sight, const Vec3& n, double radius) {
+double openness(const Sight& sight, const Vec3& n, double radius, bool glowIsOpen) {
   const auto [t, b] = tangentFrame(n);
   constexpr int kRays = S * S;
   std::array<Vec3, kRays> to;
@@ -2182,32 +2183,22 @@ double openness(const Sight& sight, const Vec3& n, double radius) {
   for (int first = 0; first < kRays; first += 16) {  // visibleAll takes up to 16
     bool seen[16];
     sight.visibleAll(std::span(to.data() + first, 16), seen);
-    through += int(std::count(seen, seen + 16, true));
-  }
-  return double(through) / kRays;
-}
-// The near hemisphere's share that is open or glows: a direction closed by an emitting surface
-// brings light, not shade. Without this every edge of a furnace (a closed box, all of it emitting,
-// uniform in its light) was split to the finest cells: the 12-triangle test cube took 120 s to
-// reach 20k patches and gained nothing.
-double nearOpenness(const Sight& sight, const Vec3& n, double radius) {
-  const auto [t, b] = tangentFrame(n);
-  constexpr int S = 4, kRays = S * S;
-  std::array<Vec3, kRays> to;
-  for (int k = 0; k < kRays; ++k) to[k] = sight.from + malleyDirection<S>(k, t, b, n) * radius;
-  bool seen[kRays];
-  sight.visibleAll(to, seen);
-  int through = 0;
-  for (int k = 0; k < kRays; ++k) {
-    if (!seen[k]) {
-      int64_t hit = sight.occlusion.firstHit(sight.from, to[k], sight.ignore);
-      if (hit >= 0 && !(dot(sight.mesh.patches[hit].normal, to[k] - sight.from) < 0)) hit = sight.mesh.patches[hit].twin;
-      seen[k] = hit >= 0 && luminance(sight.mesh.patches[hit].emission) > 0;
+    for (int k = 0; k < 16; ++k) {
+      if (!seen[k] && glowIsOpen) {
+        const Vec3& end = to[first + k];
+        int64_t hit = sight.occlusion.firstHit(sight.from, end, sight.ignore);
+        if (hit >= 0 && !(dot(sight.mesh.patches[hit].normal, end - sight.from) < 0)) hit = sight.mesh.patches[hit].twin;
+        seen[k] = hit >= 0 && luminance(sight.mesh.patches[hit].emission) > 0;
+      }
+      through += seen[k];
     }
-    through += seen[k];
   }
   return double(through) / kRays;
 }
+// The near hemisphere counts a direction closed by an emitting surface as open: without that every
+// edge of a furnace (a closed box, all of it emitting, uniform in its light) was split to the
+// finest cells, and the 12-triangle test cube took 120 s to reach 20k patches for nothing.
+double nearOpenness(const Sight& sight, const Vec3& n, double radius) { return openness<4>(sight, n, radius, true); }
 
 // An emitting polygon as the measure sees it: a whole uniformly emitting face (its n × n grid of
 // level-0 cells, one polygon: a Cornell box light at --subdivide 8 is one source instead of 64, and
@@ -2268,7 +2259,7 @@ std::vector<Emitter> measuredEmitters(const PatchMesh& mesh) {
 // The sky's direct light at a point, as the measure sees it: the sky's luminance times the share
 // of 64 cosine-distributed directions that leave the scene (a step of 1/64 between neighbouring
 // samples stays below a 2% target on a floor that sees most of the sky; 16 directions' 1/16 did not).
-double skyOpenness(const Sight& sight, const Vec3& n) { return openness<8>(sight, n, 2 * sight.occlusion.sceneSize()); }
+double skyOpenness(const Sight& sight, const Vec3& n) { return openness<8>(sight, n, 2 * sight.occlusion.sceneSize(), false); }
 
 // The light surfaces reflect once (the direct light, times ρ) as refinement's second phase sees
 // it: the corner values of each patch of the mesh the first phase left (PatchLight::corner), and

@@ -840,9 +840,6 @@ TEST(Visibility, ALargeEmitterIsSeenAroundAPlateBelowIt) {
   }
 }
 
-// Adaptive refinement keeps a furnace exact: cells split to different depths on a box made the way
-// Blender exports a cube (own vertices per face, N = 3), with 2:1 balance across its edges and fans
-// of triangles beside finer cells, is still closed (every unknown enclosed) and L = 2 everywhere.
 // A closed emitting box of reflectance ρ has L = L⁰ / (1 − ρ) everywhere. At ρ = 0.995 Jacobi needs
 // about 2,800 iterations and gets there (the early stop must not cut it); at ρ = 1 there is no
 // steady state, and the solve stops once its residual's fall could not reach the goal within
@@ -868,6 +865,9 @@ TEST(Solver, ASolveWithoutSteadyStateStopsEarlyAndASlowOneIsNotCut) {
   }
 }
 
+// Adaptive refinement keeps a furnace exact: cells split to different depths on a box made the way
+// Blender exports a cube (own vertices per face, N = 3), with 2:1 balance across its edges and fans
+// of triangles beside finer cells, is still closed (every unknown enclosed) and L = 2 everywhere.
 TEST(Refinement, AFurnaceStaysExactWithRefinedCellsAndFans) {
   Scene scene;
   scene.materials = {material("furnace", 0.5, 1)};

@@ -1346,7 +1346,6 @@ TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileByAreaAtTheTarget) {
   // The non-emitting surfaces' vertices, recomputed from the file: luminance and a third of the
   // area of the triangles around each (the box's nodes have no transform).
   std::vector<std::pair<double, double>> luminance;
-  double total = 0;
   for (const auto& mesh : m.meshes)
     for (const auto& prim : mesh.primitives) {
       const auto& emissive = m.materials.at(prim.material).emissiveFactor;
@@ -1369,12 +1368,11 @@ TEST(Display, AutomaticExposurePutsTheLitNinetiethPercentileByAreaAtTheTarget) {
         auto at = [&](int c) { return radbake::Vec3{P[3 * index[t + c]], P[3 * index[t + c] + 1], P[3 * index[t + c] + 2]}; };
         const double a = radbake::length(radbake::cross(at(1) - at(0), at(2) - at(0))) / 6;
         for (int c = 0; c < 3; ++c) luminance[first + index[t + c]].second += a;
-        total += 3 * a;
       }
     }
   // Lit surfaces only: refined, the floor has vertices deep under the blocks, black.
   std::erase_if(luminance, [](const auto& entry) { return !(entry.first > 0); });
-  total = 0;
+  double total = 0;
   for (const auto& [y, a] : luminance) total += a;
   std::sort(luminance.begin(), luminance.end());
   double p90 = 0;
