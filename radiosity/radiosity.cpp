@@ -426,23 +426,51 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
       const auto ignored = r.ignored(v);
       double best = offset;
       Vec3 target, across{};
+      std::vector<Vec3> centres;                       // of the vertex's own patches, from it
+      std::vector<std::pair<Vec3, bool>> straddled;  // planes met so far: whether its patches lie on both sides
       for (uint32_t c : near) {
         if (std::find(ignored.begin(), ignored.end(), c) != ignored.end()) continue;
         const Patch& patch = mesh.patches[c];
         const auto q = corners(mesh, patch);
         const QuadPoint np = nearestQuadPoint(q, r.point[v]);
         if (!(np.distance <= offset)) continue;
-        // A surface standing on the vertex's own (a wall on a floor): its front, along the floor.
-        if (!patch.backSide) across += patch.normal - r.normal[v] * dot(r.normal[v], patch.normal);
+        // A surface standing on the vertex's own (a wall on a floor) with the vertex's patches on
+        // both sides of its plane: its front, along the floor. (A wall's foot vertex lies on the
+        // floor and on a box's bottom too, but its patches are all on one side of theirs.)
+        if (!patch.backSide) {
+          // Judged once per plane: a face cut into many pieces touches a vertex with many.
+          const auto known = std::find_if(straddled.begin(), straddled.end(), [&](const auto& s) { return dot(s.first, patch.normal) > 1 - 1e-12; });
+          bool straddles = false;
+          if (known != straddled.end()) {
+            straddles = known->second;
+          } else {
+            if (centres.empty())
+              for (uint32_t i : r.own(v)) centres.push_back(pointOnPatch(corners(mesh, mesh.patches[i]), 0, 0) - mesh.positions[v]);
+            bool before = false, behind = false;
+            for (const Vec3& c : centres) {
+              before |= dot(c, patch.normal) > offset;
+              behind |= dot(c, patch.normal) < -offset;
+            }
+            straddles = before && behind;
+            straddled.push_back({patch.normal, straddles});
+          }
+          if (straddles) across += patch.normal - r.normal[v] * dot(r.normal[v], patch.normal);
+        }
         if (np.distance > 0 && np.distance <= best) {
           best = np.distance;
           target = pointOnPatch(q, np.s, np.t);
         }
       }
-      // A vertex whose patches lie on both sides of the foot (a floor cell straddling it) takes the
-      // crease limit from the side in front of the wall: the mean direction to its patches' centres
-      // points along the foot, and the wall was approached from within its plane (no light from it).
-      if (r.flat[v] && length(across) > 1e-3 && dot(across, r.approach[v]) < 0.5 * length(across)) {
+      // A vertex whose patches lie on both sides of the foot (a floor cell straddling it, or a floor
+      // cut along it, whose vertices there may coincide with the wall's: so its own patches are
+      // tested for one plane, not all patches at the point) takes the crease limit from the side in
+      // front of the wall, perpendicular to the foot: the mean direction to its patches' centres
+      // points along the foot (no light from the wall) or, beside a cut's thin covered sliver,
+      // obliquely (the foot's values scattered by 8% with the wall's cells).
+      const auto own = r.own(v);
+      const Vec3 plane = mesh.patches[own[0]].normal;
+      const bool ownFlat = std::all_of(own.begin(), own.end(), [&](uint32_t i) { return dot(mesh.patches[i].normal, plane) > 1 - 1e-9; });
+      if (ownFlat && length(across) > 1e-3 && dot(across, r.approach[v]) < (1 - 1e-9) * length(across)) {
         const Vec3 approach = normalize(across);
         r.origin[v] += (approach - r.approach[v]) * offset;
         r.approach[v] = approach;
@@ -2153,7 +2181,7 @@ struct PatchLight {
   // (less twice their noise), and their mean.
   double bounceError = 0, bounceLevel = 0;
   std::array<double, 4> corner{};  // the direct light's values at the corners (covered ones filled in)
-  bool dark = false;     // inside a dark room (the inside of a closed double-sided object): never lit
+  bool dark = false;     // inside a dark room (the inside of a closed double-sided object) or covered: never seen lit
 };
 
 // The indirect light a point takes is lowest where nearby surfaces close its hemisphere: at a
@@ -2404,6 +2432,13 @@ std::vector<PatchLight> measureLight(const Scene& scene, const PatchMesh& mesh, 
           gathered[i] = value[i] + rho * g.mean;
           variance[i] = rho * rho * g.variance;
         }
+      }
+      // A patch under an object standing on its surface (its inner samples all covered: with faces
+      // cut along the footprint, every patch under it) is seen by nothing: never split, as a dark one.
+      if (std::all_of(hidden + 4, hidden + 9, [](bool h) { return h; })) {
+        out[w] = {};
+        out[w].dark = true;
+        continue;
       }
       // A covered corner (under an object standing on the patch) takes, as its vertex does in the
       // solve (relocateCovered), the light beside the object: the mean of its uncovered neighbours

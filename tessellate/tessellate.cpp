@@ -1,4 +1,5 @@
 #include "tessellate/tessellate.h"
+#include "tessellate/contact.h"
 #include "tessellate/subdivision.h"
 
 #include <algorithm>
@@ -463,7 +464,10 @@ double quadArea(const std::array<Vec3, 4>& p) {
   return 0.5 * length(cross(p[2] - p[0], p[3] - p[1]));  // planar quad (or triangle with p2 == p3)
 }
 
-void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, Welder& welder, PatchMesh& mesh) {
+// firstTriangle: each patch's first output triangle in its primitive's (the contact cut replaces
+// them). mayKeep: whether the file's vertices may be kept (not where patches will be cut).
+void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, bool mayKeep, Welder& welder, PatchMesh& mesh,
+                         std::vector<uint32_t>& firstTriangle) {
   const Primitive& prim = scene.primitives[primIndex];
   PrimitivePatches& out = mesh.primitives[primIndex];
   const int material = prim.material;
@@ -471,7 +475,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
 
   auto normalAt = [&](const Face& f, const std::array<double, 4>& w) { return faceNormalAt(prim, f, w); };
 
-  if (n == 1 && !flat) {
+  if (n == 1 && !flat && mayKeep) {
     // Keep the glTF vertices when every vertex welds to exactly one patch vertex.
     out.patchVertex.assign(prim.positions.size(), kUnused);
     bool keeps = true;
@@ -530,6 +534,7 @@ void tessellatePrimitive(const Scene& scene, int primIndex, int n, bool flat, We
         const int cornerGrid[4] = {c0, c1, c2, c3};
         shade(scene, prim, mesh, patch, [&](int k, int set) { return uvAt(prim, set, gridSource[cornerGrid[k]]); });
         mesh.patches.push_back(patch);
+        firstTriangle.push_back(uint32_t(out.triangles.size()));
         if (flat) {
           // Own output vertices per patch, so a viewer shows the patch's one value flat.
           const uint32_t first = uint32_t(out.patchVertex.size());
@@ -836,7 +841,7 @@ RefinementPlan planRefinement(const Scene& scene, const TessellateOptions& optio
 // one of its edges, a fan of triangles through that point (no hanging vertex: the field stays
 // continuous and the written mesh has no T-junction).
 void tessellateCells(const Scene& scene, int primIndex, const RefinedPrimitive& rp, const PositionSet& corners, Welder& welder,
-                     PatchMesh& mesh) {
+                     PatchMesh& mesh, std::vector<uint32_t>& firstTriangle) {
   const Primitive& prim = scene.primitives[primIndex];
   PrimitivePatches& out = mesh.primitives[primIndex];
   out.keepsSourceVertices = false;
@@ -865,6 +870,7 @@ void tessellateCells(const Scene& scene, int primIndex, const RefinedPrimitive& 
     patch.cell = c;
     shade(scene, prim, mesh, patch, [&](int k, int set) { return uvAt(prim, set, m[k].source); });
     mesh.patches.push_back(patch);
+    firstTriangle.push_back(uint32_t(out.triangles.size()));
     out.triangles.push_back({m[0].output, m[1].output, m[2].output});
     if (m[3].vertex != m[2].vertex) out.triangles.push_back({m[0].output, m[2].output, m[3].output});
   };
@@ -907,13 +913,14 @@ void tessellateCells(const Scene& scene, int primIndex, const RefinedPrimitive& 
   }
 }
 
-// A double-sided material lights both sides: every patch gets a mirrored twin on its own vertices
-// (normals reversed, so they never weld with the front). Each side is a surface of its own: the
-// solver keeps a side from seeing or shadowing its twin (Patch::twin). The exporter writes the
-// front side.
-void addBackSides(PatchMesh& mesh, Welder& welder, size_t firstPatch) {
+// A double-sided material lights both sides: every patch of such a primitive gets a mirrored twin
+// on its own vertices (normals reversed, so they never weld with the front). Each side is a surface
+// of its own: the solver keeps a side from seeing or shadowing its twin (Patch::twin). The
+// exporter writes the front side.
+void addBackSides(const Scene& scene, PatchMesh& mesh, Welder& welder) {
   const size_t end = mesh.patches.size();
-  for (size_t i = firstPatch; i < end; ++i) {
+  for (size_t i = 0; i < end; ++i) {
+    if (mesh.patches[i].primitive < 0 || !scene.materials[mesh.patches[i].material].doubleSided) continue;
     Patch back = mesh.patches[i];
     std::array<uint32_t, 4> v;
     for (int k = 0; k < 4; ++k)
@@ -927,16 +934,127 @@ void addBackSides(PatchMesh& mesh, Welder& welder, size_t firstPatch) {
   }
 }
 
+// The contact cut (contact.h) applied: each cut patch becomes its pieces (triangle patches that keep
+// its cell, material and shading), on new vertices where the cuts need them, and its output
+// triangles are replaced by the pieces'. Patches with a cut-out mask are not cut (their mask's
+// texture coordinates are their corners').
+void cutAtContacts(const Scene& scene, const Contacts& contacts, Welder& welder, PatchMesh& mesh,
+                   const std::vector<uint32_t>& firstTriangle) {
+  std::vector<bool> cuttable(mesh.patches.size(), false);
+  std::vector<std::vector<ContactSegment>> segments(mesh.patches.size());
+  std::vector<std::vector<Face>> faces(scene.primitives.size());
+  for (size_t p = 0; p < scene.primitives.size(); ++p)
+    if (contacts.touched[p]) faces[p] = buildFaces(scene.primitives[p]);
+  for (size_t k = 0; k < mesh.patches.size(); ++k) {
+    const Patch& patch = mesh.patches[k];
+    if (patch.primitive < 0 || !contacts.touched[patch.primitive] || patch.mask >= 0 || firstTriangle[k] == UINT32_MAX) continue;
+    cuttable[k] = true;
+    for (int t : faces[patch.primitive][patch.cell.face].triangles) {
+      if (t < 0) continue;
+      const auto it = contacts.segments[patch.primitive].find(uint32_t(t));
+      if (it != contacts.segments[patch.primitive].end()) segments[k].insert(segments[k].end(), it->second.begin(), it->second.end());
+    }
+  }
+  const std::vector<PatchPieces> cut = cutPatches(mesh, cuttable, segments, contacts.epsilon);
+  if (cut.empty()) return;
+  // Output vertices of the new points, one per patch vertex and output edge (or patch, inside).
+  std::vector<std::map<std::tuple<uint32_t, uint32_t, uint32_t>, uint32_t>> outputOf(scene.primitives.size());
+  std::vector<std::vector<std::vector<std::array<uint32_t, 3>>>> replaced(scene.primitives.size());  // per primitive: patch's triangles
+  std::map<uint32_t, std::vector<std::array<uint32_t, 3>>> piecesOf;  // cut patch → its output triangles
+  for (const PatchPieces& pieces : cut) {
+    const Patch parent = mesh.patches[pieces.patch];
+    const int p = parent.primitive;
+    const Primitive& prim = scene.primitives[p];
+    PrimitivePatches& out = mesh.primitives[p];
+    const Face& face = faces[p][parent.cell.face];
+    const auto& t0 = out.triangles[firstTriangle[pieces.patch]];
+    const bool quad = parent.v[3] != parent.v[2];
+    const std::array<uint32_t, 4> cornerOut{t0[0], t0[1], t0[2], quad ? out.triangles[firstTriangle[pieces.patch] + 1][2] : t0[2]};
+    std::vector<uint32_t> vertex(pieces.position.size()), output(pieces.position.size());
+    for (size_t i = 0; i < pieces.position.size(); ++i) {
+      const auto& w = pieces.weights[i];
+      int nonzero = 0, only = 0;
+      for (int c = 0; c < 4; ++c)
+        if (w[c] != 0) ++nonzero, only = c;
+      if (nonzero == 1 && w[only] == 1) {
+        vertex[i] = parent.v[only];
+        output[i] = cornerOut[only];
+        continue;
+      }
+      Vec3 n{};
+      for (int c = 0; c < 4; ++c) n += mesh.normals[parent.v[c]] * w[c];
+      vertex[i] = welder.vertex(pieces.position[i], length(n) > 0 ? normalize(n) : parent.normal, parent.material);
+      // On an edge (two adjacent corners weighted): shared with the patch across it.
+      std::tuple<uint32_t, uint32_t, uint32_t> key{vertex[i], UINT32_MAX, pieces.patch};
+      if (nonzero == 2)
+        for (int c = 0; c < 4; ++c) {
+          const int d = (c + 1) % (quad ? 4 : 3);
+          if (w[c] != 0 && w[d] != 0) key = {vertex[i], std::min(cornerOut[c], cornerOut[d]), std::max(cornerOut[c], cornerOut[d])};
+        }
+      auto [it, inserted] = outputOf[p].try_emplace(key, uint32_t(out.patchVertex.size()));
+      if (inserted) {
+        out.patchVertex.push_back(vertex[i]);
+        out.source.push_back(locate(prim, face, pieces.position[i]));
+      }
+      output[i] = it->second;
+    }
+    bool first = true;
+    auto& triangles = piecesOf[pieces.patch];
+    for (const auto& t : pieces.triangles) {
+      Patch piece = parent;
+      piece.v = {vertex[t[0]], vertex[t[1]], vertex[t[2]], vertex[t[2]]};
+      piece.area = 0.5 * length(cross(mesh.positions[piece.v[1]] - mesh.positions[piece.v[0]], mesh.positions[piece.v[2]] - mesh.positions[piece.v[0]]));
+      if (!(piece.area > 0)) continue;
+      if (first) mesh.patches[pieces.patch] = piece;
+      else mesh.patches.push_back(piece);
+      first = false;
+      triangles.push_back({output[t[0]], output[t[1]], output[t[2]]});
+    }
+  }
+  // Each cut primitive's output triangles again, the pieces' in place of their patches'.
+  std::vector<std::vector<std::array<uint32_t, 3>>> rebuilt(scene.primitives.size());
+  std::vector<bool> changed(scene.primitives.size(), false);
+  for (const auto& [k, t] : piecesOf) changed[mesh.patches[k].primitive] = true;
+  for (size_t k = 0; k < firstTriangle.size(); ++k) {
+    if (firstTriangle[k] == UINT32_MAX) continue;
+    const int p = mesh.patches[k].primitive;
+    if (!changed[p]) continue;
+    const auto it = piecesOf.find(uint32_t(k));
+    if (it != piecesOf.end()) {
+      rebuilt[p].insert(rebuilt[p].end(), it->second.begin(), it->second.end());
+      continue;
+    }
+    const auto& tris = mesh.primitives[p].triangles;
+    const uint32_t from = firstTriangle[k];
+    // A patch's triangles run to the next patch's first (or the end).
+    uint32_t to = uint32_t(tris.size());
+    for (size_t j = k + 1; j < firstTriangle.size(); ++j)
+      if (firstTriangle[j] != UINT32_MAX && mesh.patches[j].primitive == p) {
+        to = firstTriangle[j];
+        break;
+      }
+    rebuilt[p].insert(rebuilt[p].end(), tris.begin() + from, tris.begin() + to);
+  }
+  for (size_t p = 0; p < scene.primitives.size(); ++p)
+    if (changed[p]) mesh.primitives[p].triangles = std::move(rebuilt[p]);
+}
+
 }  // namespace
 
 PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   PatchMesh mesh;
   mesh.primitives.resize(scene.primitives.size());
   Welder welder{mesh, {}};
+  // Where flat surfaces meet (contact.h): found on the source triangles, cut into the patches below.
+  std::vector<bool> cuttable(scene.primitives.size(), false);
+  for (size_t p = 0; p < scene.primitives.size(); ++p)
+    cuttable[p] = options.cutContacts && !options.flatPatches && schemeOf(scene.primitives[p], options) == SubdivisionScheme::kNone;
+  const Contacts contacts = findContacts(scene, cuttable);
+  mesh.contactSegments = contacts.count;
   mesh.split = options.split;
   const RefinementPlan plan = planRefinement(scene, options, mesh.split);
+  std::vector<uint32_t> firstTriangle;  // per patch; UINT32_MAX where it has none of its own (kept vertices, curved)
   for (size_t p = 0; p < scene.primitives.size(); ++p) {
-    const size_t first = mesh.patches.size();
     const double rate = subdivisionFor(scene.primitives[p], options);
     checkPatchBudget(double(scene.primitives[p].triangles.size()) * rate * rate + double(mesh.patches.size()), options,
                      fileName(scene), "mesh " + std::to_string(scene.primitives[p].mesh));
@@ -944,11 +1062,14 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
     if (scheme != SubdivisionScheme::kNone && !scene.primitives[p].triangles.empty())
       tessellateSubdivided(scene, int(p), scheme, options, welder, mesh);
     else if (plan.primitives[p].cells)
-      tessellateCells(scene, int(p), plan.primitives[p], plan.corners, welder, mesh);
+      tessellateCells(scene, int(p), plan.primitives[p], plan.corners, welder, mesh, firstTriangle);
     else
-      tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, welder, mesh);
-    if (scene.materials[scene.primitives[p].material].doubleSided) addBackSides(mesh, welder, first);
+      tessellatePrimitive(scene, int(p), subdivisionFor(scene.primitives[p], options), options.flatPatches, !contacts.touched[p], welder,
+                          mesh, firstTriangle);
+    firstTriangle.resize(mesh.patches.size(), UINT32_MAX);
   }
+  cutAtContacts(scene, contacts, welder, mesh, firstTriangle);
+  addBackSides(scene, mesh, welder);
   tessellateBezier(scene, options, welder, mesh);
   finishShading(scene, mesh);
   return mesh;

@@ -109,6 +109,7 @@ struct PatchMesh {
   double worstNonPlanarity = 0;   // curved surfaces: largest corner distance from a facet's plane over its diagonal
   size_t splitFacets = 0;         // non-planar facets split into two planar triangle patches
   std::set<Cell> split;           // the cells split in four: TessellateOptions::split and what balance added
+  size_t contactSegments = 0;     // segments where a surface touches or crosses a flat face, which cut it
 };
 
 struct TessellateOptions {
@@ -130,6 +131,9 @@ struct TessellateOptions {
   // finer, and a cell with a finer neighbour becomes a fan of triangles from the point on its
   // edge, so no vertex hangs on an edge. Ignored with flatPatches.
   std::set<Cell> split;
+  // Cut flat faces along the segments where other flat surfaces touch them, pass through them or
+  // lie on them (contact.h) before splitting them: no patch straddles a footprint.
+  bool cutContacts = true;
 };
 
 // The deepest refinement level (a cell 1/1024 of its face's grid cell).

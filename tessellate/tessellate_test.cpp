@@ -1,6 +1,8 @@
 // Tessellation tests: counts that follow from the construction, welding rules, exact areas.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <tuple>
@@ -114,14 +116,20 @@ TEST(Tessellate, CurvedRateFollowsTheChordTolerance) {
 }
 
 // No vertex of the mesh lies inside a patch edge (a T-junction): brute force over every edge.
-int tJunctions(const PatchMesh& mesh) {
+// primitive ≥ 0: its patches and their vertices only.
+int tJunctions(const PatchMesh& mesh, int primitive = -1) {
   int found = 0;
+  std::vector<Vec3> points;
+  for (const Patch& p : mesh.patches)
+    if (primitive < 0 || p.primitive == primitive)
+      for (uint32_t v : p.v) points.push_back(mesh.positions[v]);
   for (const Patch& p : mesh.patches)
     for (int e = 0; e < 4; ++e) {
+      if (primitive >= 0 && p.primitive != primitive) continue;
       const Vec3 a = mesh.positions[p.v[e]], b = mesh.positions[p.v[(e + 1) % 4]];
       const double len = length(b - a);
       if (len == 0) continue;
-      for (const Vec3& x : mesh.positions) {
+      for (const Vec3& x : points) {
         const double t = dot(x - a, b - a) / (len * len);
         if (t > 1e-9 && t < 1 - 1e-9 && length(a + (b - a) * t - x) < 1e-9 * len) ++found;
       }
@@ -186,6 +194,102 @@ TEST(Tessellate, ACellBesideAFinerOneIsAFanWithoutHangingVertices) {
   const PatchMesh plain = tessellate(scene);
   EXPECT_EQ(plain.patches.size(), 6u);
   EXPECT_TRUE(plain.split.empty());
+}
+
+// The blocks of the Cornell box stand on its floor, one input quad (issue 17's contact-aware
+// patches): the floor is cut along their footprints, uniform or refined, so no floor patch has
+// corners on both sides of a footprint's edge. The cut mesh is conforming, keeps the area, and its
+// output vertices lie where their source points say. With --contacts off, patches straddle.
+TEST(Contact, TheCornellFloorIsCutAlongTheBlocksFootprints) {
+  const Scene scene = importScene((kScenes / "cornell_box.gltf").string());
+  ASSERT_EQ(scene.primitives.size(), 8u);
+  // The footprints: the blocks' (primitives 6 and 7) points on the floor, counter-clockwise.
+  std::vector<std::vector<Vec3>> footprints;
+  for (int b : {6, 7}) {
+    std::vector<Vec3> foot;
+    for (const Vec3& x : scene.primitives[b].positions)
+      if (std::abs(x.y) < 1e-9 && std::none_of(foot.begin(), foot.end(), [&](const Vec3& y) { return length(x - y) < 1e-9; }))
+        foot.push_back(x);
+    ASSERT_EQ(foot.size(), 4u);
+    Vec3 c{};
+    for (const Vec3& x : foot) c += x / 4;
+    std::sort(foot.begin(), foot.end(), [&](const Vec3& a, const Vec3& b) { return std::atan2(a.z - c.z, a.x - c.x) > std::atan2(b.z - c.z, b.x - c.x); });
+    footprints.push_back(foot);
+  }
+  // How far x is inside the footprint (negative: outside), in the floor's plane.
+  auto inside = [](const std::vector<Vec3>& foot, const Vec3& x) {
+    double d = 1e300;
+    for (size_t e = 0; e < foot.size(); ++e) {
+      const Vec3 a = foot[e], b = foot[(e + 1) % foot.size()];
+      const Vec3 n = normalize(cross(Vec3{0, 1, 0}, b - a));  // inward for this winding, checked below
+      d = std::min(d, dot(x - a, n));
+    }
+    return d;
+  };
+  for (const auto& foot : footprints) {
+    Vec3 c{};
+    for (const Vec3& x : foot) c += x / 4;
+    ASSERT_GT(inside(foot, c), 0);
+  }
+  auto straddling = [&](const PatchMesh& mesh) {
+    int count = 0;
+    for (const Patch& p : mesh.patches) {
+      if (p.primitive != 0) continue;
+      for (const auto& foot : footprints) {
+        // Corners inside and outside, or a footprint corner strictly inside the patch.
+        bool in = false, out = false;
+        for (uint32_t v : p.v) {
+          const double d = inside(foot, mesh.positions[v]);
+          in |= d > 1e-9;
+          out |= d < -1e-9;
+        }
+        for (const Vec3& x : foot) {
+          bool within = true;
+          for (int e = 0; e < 4; ++e) {
+            const Vec3 a = mesh.positions[p.v[e]], b = mesh.positions[p.v[(e + 1) % 4]];
+            if (length(b - a) > 0) within &= dot(cross(b - a, x - a), p.normal) > 1e-9;
+          }
+          in |= within;
+        }
+        count += in && out;
+      }
+    }
+    return count;
+  };
+  const double floorArea = [&] {
+    double a = 0;
+    for (const auto& t : scene.primitives[0].triangles) {
+      const auto& x = scene.primitives[0].positions;
+      a += 0.5 * length(cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]));
+    }
+    return a;
+  }();
+  std::vector<TessellateOptions> cases(3);
+  cases[1].subdivide = 3;
+  cases[2].split = {{0, 0, 0, 0, 0}, {0, 0, 1, 1, 1}, {0, 0, 2, 2, 2}};  // the floor refined toward the blocks
+  for (TessellateOptions o : cases) {
+    const PatchMesh mesh = tessellate(scene, o);
+    SCOPED_TRACE("subdivide " + std::to_string(o.subdivide) + ", " + std::to_string(o.split.size()) + " split cells");
+    EXPECT_GE(mesh.contactSegments, 8u);  // at least the blocks' four sides each
+    EXPECT_EQ(straddling(mesh), 0);
+    EXPECT_EQ(tJunctions(mesh, 0), 0);  // (floor points on a block's foot are not the block's: two surfaces)
+    double area = 0;
+    for (const Patch& p : mesh.patches) area += p.primitive == 0 ? p.area : 0;
+    EXPECT_NEAR(area, floorArea, 1e-12 * floorArea);
+    const PrimitivePatches& out = mesh.primitives[0];
+    double outputArea = 0;
+    for (const auto& t : out.triangles) {
+      std::array<Vec3, 3> x;
+      for (int k = 0; k < 3; ++k) {
+        x[k] = positionAt(scene.primitives[0], out.source[t[k]]);
+        EXPECT_LT(length(x[k] - mesh.positions[out.patchVertex[t[k]]]), 1e-12);
+      }
+      outputArea += 0.5 * length(cross(x[1] - x[0], x[2] - x[0]));
+    }
+    EXPECT_NEAR(outputArea, floorArea, 1e-12 * floorArea);
+    o.cutContacts = false;
+    EXPECT_GT(straddling(tessellate(scene, o)), 0);
+  }
 }
 
 }  // namespace

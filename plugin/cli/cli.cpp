@@ -303,6 +303,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (options.subdivisionSurfaces == "catmull-clark") tessellateOptions.subdivisionSurfaces = SubdivisionScheme::kCatmullClark;
   if (options.subdivisionSurfaces == "loop") tessellateOptions.subdivisionSurfaces = SubdivisionScheme::kLoop;
   tessellateOptions.flatPatches = options.method == "constant";
+  tessellateOptions.cutContacts = options.contacts == "cut";
   tessellateOptions.maxMemoryBytes = maxMemory;
   PatchMesh mesh = tessellate(scene, tessellateOptions);
   Refinement refined;
@@ -397,7 +398,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (!options.report.empty()) {
     nlohmann::json report{
         {"input", options.input}, {"output", options.output}, {"method", options.method},
-        {"subdivide", options.subdivide}, {"maxEdge", options.maxEdge}, {"maxChord", options.maxChord},
+        {"subdivide", options.subdivide}, {"maxEdge", options.maxEdge}, {"maxChord", options.maxChord}, {"contacts", options.contacts},
         {"refinement", options.refine ? nlohmann::json{{"target", *options.refine}, {"maxPatches", refined.maxPatches},
                                                        {"rounds", refined.rounds}, {"splitCells", refined.splitCells},
                                                        {"worstError", refined.worst}, {"budgetReached", refined.budgetReached}}
@@ -405,7 +406,8 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
         {"counts", {{"primitiveInstances", scene.primitives.size()}, {"patches", mesh.patches.size()},
                     {"vertices", mesh.positions.size()}, {"writtenVertices", summary.writtenVertices},
                     {"clonedMeshes", summary.clonedMeshes}, {"curvedRate", mesh.curvedRate},
-                    {"worstNonPlanarity", mesh.worstNonPlanarity}, {"splitFacets", mesh.splitFacets}}},
+                    {"worstNonPlanarity", mesh.worstNonPlanarity}, {"splitFacets", mesh.splitFacets},
+                    {"contactSegments", mesh.contactSegments}}},
         {"solver", {{"interreflection", solution.interreflection}, {"iterations", solution.iterations},
                     {"converged", solution.converged},
                     {"relativeResidual", solution.residual}, {"tolerance", options.tolerance},
@@ -478,6 +480,10 @@ ParseResult parseCommandLine(const std::vector<std::string>& args) {
   bakeCmd->add_option("-o,--output", o.output, "output file (.glb or .gltf)")->required();
   bakeCmd->add_option("--method", o.method, "bilinear (default): vertex radiosity; constant: classic constant patches")
       ->check(CLI::IsMember({"bilinear", "constant"}));
+  bakeCmd->add_option("--contacts", o.contacts,
+                      "cut (default): split flat faces along the lines where other surfaces stand on them or pass "
+                      "through them; off: keep the faces whole")
+      ->check(CLI::IsMember({"cut", "off"}));
   bakeCmd->add_option("--subdivide", o.subdivide,
                       "a uniform mesh: every input face split into N×N patches (refined further only with --refine)")
       ->check(CLI::Range(1, 4096));

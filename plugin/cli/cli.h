@@ -18,6 +18,7 @@ struct Options {
   std::string input;
   std::string output;
   std::string method = "bilinear";
+  std::string contacts = "cut";  // --contacts: cut flat faces where surfaces touch or cross them, or off
   int subdivide = 1;
   double maxEdge = 0;
   double maxChord = 0;
