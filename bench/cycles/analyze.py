@@ -282,8 +282,9 @@ fl = block_dist < 0.02
 if fl.any():
     dd = ((rb[nmax]["L"] - ref) / ref.mean(1, keepdims=True))[fl].mean(1)
     pl(f"Floor points within 2 cm of a block's base ({fl.sum()}): radbake N = {nmax} is {dd.mean():+.1%} off there on "
-       f"average (worst {dd.min():+.0%}): the floor is one input quad, and its N × N patches straddle the blocks' "
-       f"footprints (the vertices under a block gather just beside it: docs/radiosity.md, \"Contact\").")
+       f"average (worst {dd.min():+.0%}). The floor is one input quad; its N × N patches are cut along the blocks' "
+       f"footprints (docs/radiosity.md, \"Contact cuts\"), so what is left there is the field's interpolation over "
+       f"patches beside the shadowed feet.")
     for t in sorted(rf):
         dd = ((rf[t]["L"] - ref) / ref.mean(1, keepdims=True))[fl].mean(1)
         pl(f"With `--subdivide {t[0]} --refine {rf[t]['target']:g} --max-patches {t[1]}` ({rf[t]['patches']} patches): {dd.mean():+.1%} on average there (worst {dd.min():+.0%}).")
