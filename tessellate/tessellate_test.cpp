@@ -137,6 +137,22 @@ int tJunctions(const PatchMesh& mesh, int primitive = -1) {
   return found;
 }
 
+// The area of a primitive's output triangles, each output vertex checked to lie where its source
+// point says (on the file's triangle) within 1e-12.
+double outputArea(const Scene& scene, const PatchMesh& mesh, int primitive) {
+  const PrimitivePatches& out = mesh.primitives[primitive];
+  double area = 0;
+  for (const auto& t : out.triangles) {
+    std::array<Vec3, 3> x;
+    for (int k = 0; k < 3; ++k) {
+      x[k] = positionAt(scene.primitives[primitive], out.source[t[k]]);
+      EXPECT_LT(length(x[k] - mesh.positions[out.patchVertex[t[k]]]), 1e-12);
+    }
+    area += 0.5 * length(cross(x[1] - x[0], x[2] - x[0]));
+  }
+  return area;
+}
+
 TEST(Tessellate, RefinedCellsStayConformingAcrossFacesAndKeepTheArea) {
   // One primitive per face: primitive 0 split three levels deep at the inner corner of its first
   // quarter (cell (2, 1, 1) touches both level-1 cells beside the quarter).
@@ -158,18 +174,8 @@ TEST(Tessellate, RefinedCellsStayConformingAcrossFacesAndKeepTheArea) {
     EXPECT_EQ(p.cell.primitive, p.primitive);
     EXPECT_FALSE(mesh.split.count(p.cell));
   }
-  const PrimitivePatches& out = mesh.primitives[0];
-  EXPECT_FALSE(out.keepsSourceVertices);
-  double outputArea = 0;
-  for (const auto& t : out.triangles) {
-    std::array<Vec3, 3> x;
-    for (int k = 0; k < 3; ++k) {
-      x[k] = positionAt(scene.primitives[0], out.source[t[k]]);
-      EXPECT_LT(length(x[k] - mesh.positions[out.patchVertex[t[k]]]), 1e-12);
-    }
-    outputArea += 0.5 * length(cross(x[1] - x[0], x[2] - x[0]));
-  }
-  EXPECT_NEAR(outputArea, 1.0, 1e-12);  // the face's
+  EXPECT_FALSE(mesh.primitives[0].keepsSourceVertices);
+  EXPECT_NEAR(outputArea(scene, mesh, 0), 1.0, 1e-12);  // the face's
 }
 
 TEST(Tessellate, ACellBesideAFinerOneIsAFanWithoutHangingVertices) {
@@ -276,17 +282,7 @@ TEST(Contact, TheCornellFloorIsCutAlongTheBlocksFootprints) {
     double area = 0;
     for (const Patch& p : mesh.patches) area += p.primitive == 0 ? p.area : 0;
     EXPECT_NEAR(area, floorArea, 1e-12 * floorArea);
-    const PrimitivePatches& out = mesh.primitives[0];
-    double outputArea = 0;
-    for (const auto& t : out.triangles) {
-      std::array<Vec3, 3> x;
-      for (int k = 0; k < 3; ++k) {
-        x[k] = positionAt(scene.primitives[0], out.source[t[k]]);
-        EXPECT_LT(length(x[k] - mesh.positions[out.patchVertex[t[k]]]), 1e-12);
-      }
-      outputArea += 0.5 * length(cross(x[1] - x[0], x[2] - x[0]));
-    }
-    EXPECT_NEAR(outputArea, floorArea, 1e-12 * floorArea);
+    EXPECT_NEAR(outputArea(scene, mesh, 0), floorArea, 1e-12 * floorArea);
     o.cutContacts = false;
     EXPECT_GT(straddling(tessellate(scene, o)), 0);
   }
