@@ -959,7 +959,6 @@ void cutAtContacts(const Scene& scene, const Contacts& contacts, Welder& welder,
   if (cut.empty()) return;
   // Output vertices of the new points, one per patch vertex and output edge (or patch, inside).
   std::vector<std::map<std::tuple<uint32_t, uint32_t, uint32_t>, uint32_t>> outputOf(scene.primitives.size());
-  std::vector<std::vector<std::vector<std::array<uint32_t, 3>>>> replaced(scene.primitives.size());  // per primitive: patch's triangles
   std::map<uint32_t, std::vector<std::array<uint32_t, 3>>> piecesOf;  // cut patch → its output triangles
   for (const PatchPieces& pieces : cut) {
     const Patch parent = mesh.patches[pieces.patch];
@@ -1024,16 +1023,12 @@ void cutAtContacts(const Scene& scene, const Contacts& contacts, Welder& welder,
       rebuilt[p].insert(rebuilt[p].end(), it->second.begin(), it->second.end());
       continue;
     }
+    // A primitive's patches are consecutive (pieces beyond the first go after all of them), so a
+    // patch's triangles run to the next patch's first, or to the end.
     const auto& tris = mesh.primitives[p].triangles;
-    const uint32_t from = firstTriangle[k];
-    // A patch's triangles run to the next patch's first (or the end).
-    uint32_t to = uint32_t(tris.size());
-    for (size_t j = k + 1; j < firstTriangle.size(); ++j)
-      if (firstTriangle[j] != UINT32_MAX && mesh.patches[j].primitive == p) {
-        to = firstTriangle[j];
-        break;
-      }
-    rebuilt[p].insert(rebuilt[p].end(), tris.begin() + from, tris.begin() + to);
+    const bool last = k + 1 == firstTriangle.size() || mesh.patches[k + 1].primitive != p;
+    const uint32_t to = last ? uint32_t(tris.size()) : firstTriangle[k + 1];
+    rebuilt[p].insert(rebuilt[p].end(), tris.begin() + firstTriangle[k], tris.begin() + to);
   }
   for (size_t p = 0; p < scene.primitives.size(); ++p)
     if (changed[p]) mesh.primitives[p].triangles = std::move(rebuilt[p]);
