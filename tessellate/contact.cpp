@@ -342,6 +342,49 @@ struct Triangulation {
       if (!flipped) return;
     }
   }
+
+  // The triangles paired across edges that are not cuts into convex quads, the rest as triangles
+  // (d = c): every piece is a patch, with its kernels and its share of the refinement budget, and a
+  // patch cut once across from edge to edge is two quads again instead of four triangles. Greedy,
+  // roundest quads first: a quad's worst corner has sin(angle) above kMinSine, so no corner is
+  // nearly straight (a point on an edge is not a corner the bilinear map can stand).
+  std::vector<std::array<int, 4>> pieces() const {
+    constexpr double kMinSine = 0.2;
+    auto sine = [&](int a, int b, int c) {  // at b, of the corner a-b-c (counter-clockwise: positive)
+      return orient(p[a], p[b], p[c]) / (dist2(p[a], p[b]) * dist2(p[b], p[c]));
+    };
+    std::map<std::pair<int, int>, std::pair<size_t, int>> owner;  // directed edge → triangle, third point
+    for (size_t t = 0; t < triangles.size(); ++t)
+      for (int e = 0; e < 3; ++e) owner[{triangles[t][e], triangles[t][(e + 1) % 3]}] = {t, triangles[t][(e + 2) % 3]};
+    struct Pair {
+      double worst;
+      size_t first, second;
+      std::array<int, 4> quad;
+    };
+    std::vector<Pair> pairs;
+    for (const auto& [edge, first] : owner) {
+      const auto [i, j] = edge;
+      if (i > j || fixed.count(key(i, j))) continue;
+      const auto other = owner.find({j, i});
+      if (other == owner.end()) continue;
+      const int c = first.second, d = other->second.second;
+      const std::array<int, 4> quad{i, d, j, c};
+      double worst = 1;
+      for (int k = 0; k < 4; ++k) worst = std::min(worst, sine(quad[(k + 3) % 4], quad[k], quad[(k + 1) % 4]));
+      if (worst > kMinSine) pairs.push_back({worst, first.first, other->second.first, quad});
+    }
+    std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.worst > b.worst; });
+    std::vector<char> used(triangles.size(), 0);
+    std::vector<std::array<int, 4>> out;
+    for (const Pair& q : pairs) {
+      if (used[q.first] || used[q.second]) continue;
+      used[q.first] = used[q.second] = 1;
+      out.push_back(q.quad);
+    }
+    for (size_t t = 0; t < triangles.size(); ++t)
+      if (!used[t]) out.push_back({triangles[t][0], triangles[t][1], triangles[t][2], triangles[t][2]});
+    return out;
+  }
 };
 
 std::vector<Vec3> patchCorners(const PatchMesh& mesh, const Patch& patch) {
@@ -548,7 +591,7 @@ std::vector<PatchPieces> cutPatches(const PatchMesh& mesh, const std::vector<boo
     if (!ok) continue;
     for (const auto& [id, at] : exact) pieces.position[id] = at;
     pieces.weights = tr.weights;
-    pieces.triangles = tr.triangles;
+    pieces.polygons = tr.pieces();
     out.push_back(std::move(pieces));
   }
   return out;

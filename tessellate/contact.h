@@ -5,8 +5,10 @@
 // Two steps. findContacts intersects the source triangles of the flat primitives: the segments
 // where another triangle touches or crosses a triangle's plane (not where it lies in it: coincident
 // surfaces are ambiguous). After the faces are split into patches (uniform or refined cells, so
-// patch sizes stay what was asked for), cutPatches triangulates every patch a segment crosses along its segments, and puts the points
-// where a cut ends on a patch edge into the patch across that edge too: the mesh stays conforming.
+// patch sizes stay what was asked for), cutPatches triangulates every patch a segment crosses along
+// its segments, pairs the triangles back into quads where no cut runs between them, and puts the
+// points where a cut ends on a patch edge into the patch across that edge too: the mesh stays
+// conforming.
 #pragma once
 
 #include <array>
@@ -36,13 +38,13 @@ struct Contacts {
 Contacts findContacts(const Scene& scene, const std::vector<bool>& cuttable);
 
 // A patch in pieces: its points (the corners first, then new ones; each with weights on the
-// patch's four corners that give its position) and triangles over them, counter-clockwise seen from
-// the patch's front.
+// patch's four corners that give its position) and convex quads and triangles (d = c) over them,
+// counter-clockwise seen from the patch's front.
 struct PatchPieces {
   uint32_t patch = 0;
   std::vector<Vec3> position;
   std::vector<std::array<double, 4>> weights;
-  std::vector<std::array<int, 3>> triangles;
+  std::vector<std::array<int, 4>> polygons;
 };
 
 // The pieces of the patches marked `cuttable`, given each one's candidate segments (those of its

@@ -999,15 +999,16 @@ void cutAtContacts(const Scene& scene, const Contacts& contacts, Welder& welder,
     }
     bool first = true;
     auto& triangles = piecesOf[pieces.patch];
-    for (const auto& t : pieces.triangles) {
+    for (const auto& t : pieces.polygons) {
       Patch piece = parent;
-      piece.v = {vertex[t[0]], vertex[t[1]], vertex[t[2]], vertex[t[2]]};
-      piece.area = 0.5 * length(cross(mesh.positions[piece.v[1]] - mesh.positions[piece.v[0]], mesh.positions[piece.v[2]] - mesh.positions[piece.v[0]]));
+      piece.v = {vertex[t[0]], vertex[t[1]], vertex[t[2]], vertex[t[3]]};
+      piece.area = quadArea({mesh.positions[piece.v[0]], mesh.positions[piece.v[1]], mesh.positions[piece.v[2]], mesh.positions[piece.v[3]]});
       if (!(piece.area > 0)) continue;
       if (first) mesh.patches[pieces.patch] = piece;
       else mesh.patches.push_back(piece);
       first = false;
       triangles.push_back({output[t[0]], output[t[1]], output[t[2]]});
+      if (t[3] != t[2]) triangles.push_back({output[t[0]], output[t[2]], output[t[3]]});
     }
   }
   // Each cut primitive's output triangles again, the pieces' in place of their patches'.
