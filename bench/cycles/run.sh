@@ -5,9 +5,9 @@
 #
 #   bench/cycles/run.sh
 #
-# Settings (environment): RADBAKE_N="1 2 4 8 12 16"  RADBAKE_REFINE="1:3000 6:4000 8:5000 8:10000 16:20000" (N:B,
+# Settings (environment): RADBAKE_N="1 2 4 8 12 16"  RADBAKE_REFINE="1:3000 1:20024 6:4000 8:5000 8:10000 16:20000" (N:B,
 #   --subdivide N --refine $REFINE_TARGET (0.02) --max-patches B: the budget, not the target, ends refinement
-#   where shadow and contact lines are sharp)  CYCLES_SAMPLES="4 16 64 256 1024 2048 4096" (seed 0; the reference runs use seeds 1 and 2)
+#   where shadow and contact lines are sharp; 1:20024 is what `radbake bake` does with no option on this file)  CYCLES_SAMPLES="4 16 64 256 1024 2048 4096" (seed 0; the reference runs use seeds 1 and 2)
 #   REF_N="16 24" (radbake levels extrapolated for the reference)  REF_SAMPLES=2048 (two Cycles runs)
 #   M=13 (probe grid per face)  TAU=0.0025 (radbake counts as converged where its extrapolation step is below)
 # Needs: blender (Debian 3.4), /usr/bin/python3 with numpy, scipy, matplotlib; builds radbake if missing.
@@ -20,7 +20,7 @@ bin=build/plugin/cli/radbake
 [ -x "$bin" ] || scripts/build.sh
 scene=${SCENE:-tests/data/scenes/cornell_box.gltf}
 RADBAKE_N=${RADBAKE_N:-"1 2 4 8 12 16"}
-RADBAKE_REFINE=${RADBAKE_REFINE:-"1:3000 6:4000 8:5000 8:10000 16:20000"}
+RADBAKE_REFINE=${RADBAKE_REFINE:-"1:3000 1:20024 6:4000 8:5000 8:10000 16:20000"}
 REFINE_TARGET=${REFINE_TARGET:-0.02}
 CYCLES_SAMPLES=${CYCLES_SAMPLES:-"4 16 64 256 1024 2048 4096"}
 REF_N=${REF_N:-"16 24"}
