@@ -1626,23 +1626,33 @@ bool nearHalf(double value, double expected) {
   return std::abs(value - expected) <= 1e-3 * std::abs(expected) + 1e-5;
 }
 
-// Uniform (--subdivide 4) and refined (--refine: cells of several sizes, fans where they meet): the
-// lightmap holds the light of the written triangles, vertex by vertex and texel by texel.
-class LightmapOutputOf : public ::testing::TestWithParam<std::vector<std::string>> {};
+// Uniform (--subdivide 4) and refined (--refine: cells of several sizes, fans where they meet),
+// faces whole and cut along the blocks' feet (the default): the lightmap holds the light of the
+// written triangles, vertex by vertex and texel by texel. A generated atlas puts vertices on texel
+// centers, and a cut's points can come closer than a texel: two then share one texel, which holds
+// one of their values, and the snapping moves a close point's triangles by up to half a texel, so
+// a vertex beside it may sit on the edge of a neighbour's triangle (README, Known limits). With
+// cuts such vertices stay few (measured: 16 of 1,481 refined, up to 3.5% off beside a shared
+// texel; none uniform); every texel inside a triangle still holds its interpolation.
+struct LightmapCase {
+  const char* name;
+  std::vector<std::string> args;
+  bool cut;
+};
+class LightmapOutputOf : public ::testing::TestWithParam<LightmapCase> {};
 INSTANTIATE_TEST_SUITE_P(Bakes, LightmapOutputOf,
-                         ::testing::Values(std::vector<std::string>{"--subdivide", "4"},
-                                           std::vector<std::string>{"--subdivide", "4", "--refine", "0.05", "--max-patches", "1500"}),
-                         [](const auto& info) { return info.param.size() == 2 ? "uniform" : "refined"; });
+                         ::testing::Values(LightmapCase{"uniform", {"--subdivide", "4", "--contacts", "off"}, false},
+                                           LightmapCase{"refined", {"--subdivide", "4", "--refine", "0.05", "--max-patches", "1500", "--contacts", "off"}, false},
+                                           LightmapCase{"uniform_cut", {"--subdivide", "4"}, true},
+                                           LightmapCase{"refined_cut", {"--subdivide", "4", "--refine", "0.05", "--max-patches", "1500"}, true}),
+                         [](const auto& info) { return std::string(info.param.name); });
 
 TEST_P(LightmapOutputOf, ExrHoldsEveryVertexsLightAndEveryCoveredTexel) {
   const fs::path dir = tempDir();
   const fs::path out = dir / "cornell_lm.glb", exr = dir / "cornell_lm.exr", report = dir / "cornell_lm.json";
-  // Faces whole: a contact cut's points along the blocks' feet come closer than a texel, and the
-  // atlas puts two of them on one texel center (README, Known limits).
   std::vector<std::string> args{"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o", out.string(),
-                                "--lightmap", exr.string(), "--lightmap-size", "512", "--report", report.string(), "-q",
-                                "--contacts", "off"};
-  args.insert(args.end(), GetParam().begin(), GetParam().end());
+                                "--lightmap", exr.string(), "--lightmap-size", "512", "--report", report.string(), "-q"};
+  args.insert(args.end(), GetParam().args.begin(), GetParam().args.end());
   const RunResult r = radbake(args);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir / "cornell_lm.preview.png"));
@@ -1702,7 +1712,8 @@ TEST_P(LightmapOutputOf, ExrHoldsEveryVertexsLightAndEveryCoveredTexel) {
     }
   EXPECT_GT(vertices, 400u);
   EXPECT_GT(texels, 100000u);
-  EXPECT_EQ(vertexMisses, 0u) << "of " << vertices;
+  if (GetParam().cut) EXPECT_LE(vertexMisses, vertices / 50) << "of " << vertices;
+  else EXPECT_EQ(vertexMisses, 0u) << "of " << vertices;
   EXPECT_EQ(texelMisses, 0u) << "of " << texels;
   EXPECT_EQ(m.extensionsUsed, (std::vector<std::string>{"KHR_materials_emissive_strength", "MOZ_lightmap"}));
 }
