@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -48,6 +49,11 @@ constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 inline double length(const Vec3& v) { return std::sqrt(dot(v, v)); }
+
+// A position's bits as a key (-0 counts as +0): points computed the same way have the same key, so
+// patches on either side of an edge find each other's points, and welding needs no tolerance.
+inline uint64_t keyBits(double v) { return std::bit_cast<uint64_t>(v == 0.0 ? 0.0 : v); }
+inline std::array<uint64_t, 3> positionKey(const Vec3& p) { return {keyBits(p.x), keyBits(p.y), keyBits(p.z)}; }
 inline Vec3 normalize(const Vec3& v) {
   const double len = length(v);
   return len > 0 ? v / len : Vec3{};

@@ -178,11 +178,11 @@ std::optional<Segment> clip(const Frame& f, P2 p, P2 q, double eps) {
 // An edge keyed by its endpoints' position bits (smaller first), so the patches on either side
 // find the same points on it.
 using EdgeKey = std::array<uint64_t, 6>;
-uint64_t bitsOf(double v) { return std::bit_cast<uint64_t>(v == 0.0 ? 0.0 : v); }
 bool before(const Vec3& a, const Vec3& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); }
 EdgeKey edgeKey(Vec3 a, Vec3 b) {
   if (before(b, a)) std::swap(a, b);
-  return {bitsOf(a.x), bitsOf(a.y), bitsOf(a.z), bitsOf(b.x), bitsOf(b.y), bitsOf(b.z)};
+  const auto ka = positionKey(a), kb = positionKey(b);
+  return {ka[0], ka[1], ka[2], kb[0], kb[1], kb[2]};
 }
 
 // ---- Triangulating a patch with its cuts -------------------------------------------------------

@@ -63,8 +63,6 @@ struct WeldHash {
   size_t operator()(const WeldKey& k) const { return hashWords(std::array<uint64_t, 4>{k.px, k.py, k.pz, uint64_t(k.material)}); }
 };
 
-uint64_t bits(double v) { return std::bit_cast<uint64_t>(v == 0.0 ? 0.0 : v); }  // -0 welds with +0
-
 constexpr double kSameNormalCos = 1 - 1e-10;  // glTF vertices: the same normal up to rounding
 constexpr double kSmoothSeamCos = 0.98480775301220802;  // cos 10°: a curved surface's seams weld below this
 
@@ -73,7 +71,7 @@ struct Welder {
   std::unordered_map<WeldKey, std::vector<uint32_t>, WeldHash> index;
 
   uint32_t vertex(const Vec3& p, const Vec3& n, int material, double minCos = kSameNormalCos) {
-    auto& candidates = index[WeldKey{bits(p.x), bits(p.y), bits(p.z), material}];
+    auto& candidates = index[WeldKey{keyBits(p.x), keyBits(p.y), keyBits(p.z), material}];
     for (uint32_t c : candidates)
       if (dot(mesh.normals[c], n) >= minCos) return c;
     candidates.push_back(uint32_t(mesh.positions.size()));
@@ -728,7 +726,6 @@ void tessellateBezier(const Scene& scene, const TessellateOptions& options, Weld
 // of the same rate has the same bits on both sides: conformity is checked by position.
 
 using PositionSet = std::unordered_set<std::array<uint64_t, 3>, WordsHash<3>>;
-std::array<uint64_t, 3> positionKey(const Vec3& p) { return {bits(p.x), bits(p.y), bits(p.z)}; }
 
 // A primitive's faces, rate and leaf cells under the refinement.
 struct RefinedPrimitive {

@@ -270,8 +270,12 @@ TEST_P(RoundTrip, KeepsTheDocumentAndValidates) {
   // along contacts get new ones.
   const int split = input.filename() == "one_quad_nonplanar.gltf" ? 2 : 0;
   EXPECT_LE(retessellated, split + cut);  // (cut counts instances: a mesh drawn twice is written once)
-  if (cut > 0) EXPECT_GT(retessellated, split);
-  if (input.filename() == "cornell_box.gltf") EXPECT_EQ(retessellated, 2);  // the floor, in both outputs
+  if (cut > 0) {
+    EXPECT_GT(retessellated, split);
+  }
+  if (input.filename() == "cornell_box.gltf") {
+    EXPECT_EQ(retessellated, 2);  // the floor, in both outputs
+  }
   // The lightmap output of the same: every primitive re-indexed for the atlas, MOZ_lightmap added.
   const fs::path lightmapped = dir / (input.stem().string() + "_lightmapped.glb");
   {
@@ -1712,8 +1716,11 @@ TEST_P(LightmapOutputOf, ExrHoldsEveryVertexsLightAndEveryCoveredTexel) {
     }
   EXPECT_GT(vertices, 400u);
   EXPECT_GT(texels, 100000u);
-  if (GetParam().cut) EXPECT_LE(vertexMisses, vertices / 50) << "of " << vertices;
-  else EXPECT_EQ(vertexMisses, 0u) << "of " << vertices;
+  if (GetParam().cut) {
+    EXPECT_LE(vertexMisses, vertices / 50) << "of " << vertices;
+  } else {
+    EXPECT_EQ(vertexMisses, 0u) << "of " << vertices;
+  }
   EXPECT_EQ(texelMisses, 0u) << "of " << texels;
   EXPECT_EQ(m.extensionsUsed, (std::vector<std::string>{"KHR_materials_emissive_strength", "MOZ_lightmap"}));
 }
