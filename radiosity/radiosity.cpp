@@ -2599,14 +2599,12 @@ std::vector<PatchLight> refineRounds(const Scene& scene, TessellateOptions& opti
   constexpr int kMaxRounds = 4 * kMaxRefineLevel;
   Refinement phase;
   phase.maxPatches = maxPatches;
-  std::vector<PatchLight> light;
-  bool measuredAny = false;
+  std::vector<PatchLight> light;  // empty until a round measures
   for (int round = 0;; ++round) {
     if (bounce && budgetRoom(mesh.patches.size(), maxPatches) == 0) {
       phase.budgetReached = true;
       break;
     }
-    measuredAny = true;
     // Measure the patches not seen before.
     std::vector<PatchKey> keys(mesh.patches.size());
     std::vector<uint32_t> fresh;
@@ -2642,7 +2640,7 @@ std::vector<PatchLight> refineRounds(const Scene& scene, TessellateOptions& opti
   }
   summary.rounds += phase.rounds;
   summary.splitCells += phase.splitCells;
-  if (measuredAny) summary.worst = phase.worst;
+  if (!light.empty()) summary.worst = phase.worst;
   summary.budgetReached = phase.budgetReached;
   return light;
 }

@@ -310,6 +310,27 @@ struct Triangulation {
     return true;
   }
 
+  // Each edge between two triangles that is not a cut, once, in (i, j) order: the triangle on its
+  // left (i → j) with its third point c, and the one on its right with its third point d.
+  struct FreeEdge {
+    int i, j;
+    size_t left, right;
+    int c, d;
+  };
+  std::vector<FreeEdge> freeEdges() const {
+    std::map<std::pair<int, int>, std::pair<size_t, int>> owner;  // directed edge → triangle, third point
+    for (size_t t = 0; t < triangles.size(); ++t)
+      for (int e = 0; e < 3; ++e) owner[{triangles[t][e], triangles[t][(e + 1) % 3]}] = {t, triangles[t][(e + 2) % 3]};
+    std::vector<FreeEdge> out;
+    for (const auto& [edge, first] : owner) {
+      const auto [i, j] = edge;
+      if (i > j || fixed.count(key(i, j))) continue;
+      const auto other = owner.find({j, i});
+      if (other != owner.end()) out.push_back({i, j, first.first, other->second.first, first.second, other->second.second});
+    }
+    return out;
+  }
+
   // Lawson's flips of the edges not constrained (cuts, the polygon's edges): the Delaunay
   // triangulation of the pieces, whose triangles are as round as the cuts allow.
   void improve() {
@@ -320,23 +341,16 @@ struct Triangulation {
     // Rounds of flips of disjoint pairs: a patch crossed by hundreds of cuts (parts of an engine
     // pressed into each other) made one flip a round with the edge map rebuilt, cubic in the cuts.
     for (int round = 0; round < 256; ++round) {
-      std::map<std::pair<int, int>, std::pair<size_t, int>> owner;  // directed edge → triangle, third point
-      for (size_t t = 0; t < triangles.size(); ++t)
-        for (int e = 0; e < 3; ++e) owner[{triangles[t][e], triangles[t][(e + 1) % 3]}] = {t, triangles[t][(e + 2) % 3]};
       std::vector<char> flippedNow(triangles.size(), 0);
       bool flipped = false;
-      for (const auto& [edge, first] : owner) {
-        const auto [i, j] = edge;
-        if (i > j || fixed.count(key(i, j))) continue;
-        const auto other = owner.find({j, i});
-        if (other == owner.end() || flippedNow[first.first] || flippedNow[other->second.first]) continue;
-        const int c = first.second, d = other->second.second;
+      for (const auto& [i, j, left, right, c, d] : freeEdges()) {
+        if (flippedNow[left] || flippedNow[right]) continue;
         const double len = dist2(p[i], p[j]);
         if (incircle(i, j, c, d) <= 1e-12 * len * len * len * len) continue;
         if (orient(p[c], p[i], p[d]) <= len * eps || orient(p[d], p[j], p[c]) <= len * eps) continue;
-        triangles[first.first] = {c, i, d};
-        triangles[other->second.first] = {d, j, c};
-        flippedNow[first.first] = flippedNow[other->second.first] = 1;
+        triangles[left] = {c, i, d};
+        triangles[right] = {d, j, c};
+        flippedNow[left] = flippedNow[right] = 1;
         flipped = true;
       }
       if (!flipped) return;
@@ -353,25 +367,17 @@ struct Triangulation {
     auto sine = [&](int a, int b, int c) {  // at b, of the corner a-b-c (counter-clockwise: positive)
       return orient(p[a], p[b], p[c]) / (dist2(p[a], p[b]) * dist2(p[b], p[c]));
     };
-    std::map<std::pair<int, int>, std::pair<size_t, int>> owner;  // directed edge → triangle, third point
-    for (size_t t = 0; t < triangles.size(); ++t)
-      for (int e = 0; e < 3; ++e) owner[{triangles[t][e], triangles[t][(e + 1) % 3]}] = {t, triangles[t][(e + 2) % 3]};
     struct Pair {
       double worst;
       size_t first, second;
       std::array<int, 4> quad;
     };
     std::vector<Pair> pairs;
-    for (const auto& [edge, first] : owner) {
-      const auto [i, j] = edge;
-      if (i > j || fixed.count(key(i, j))) continue;
-      const auto other = owner.find({j, i});
-      if (other == owner.end()) continue;
-      const int c = first.second, d = other->second.second;
+    for (const auto& [i, j, left, right, c, d] : freeEdges()) {
       const std::array<int, 4> quad{i, d, j, c};
       double worst = 1;
       for (int k = 0; k < 4; ++k) worst = std::min(worst, sine(quad[(k + 3) % 4], quad[k], quad[(k + 1) % 4]));
-      if (worst > kMinSine) pairs.push_back({worst, first.first, other->second.first, quad});
+      if (worst > kMinSine) pairs.push_back({worst, left, right, quad});
     }
     std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.worst > b.worst; });
     std::vector<char> used(triangles.size(), 0);

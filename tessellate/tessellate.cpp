@@ -931,8 +931,8 @@ void addBackSides(const Scene& scene, PatchMesh& mesh, Welder& welder) {
   }
 }
 
-// The contact cut (contact.h) applied: each cut patch becomes its pieces (triangle patches that keep
-// its cell, material and shading), on new vertices where the cuts need them, and its output
+// The contact cut (contact.h) applied: each cut patch becomes its pieces (quad and triangle patches
+// that keep its cell, material and shading), on new vertices where the cuts need them, and its output
 // triangles are replaced by the pieces'. Patches with a cut-out mask are not cut (their mask's
 // texture coordinates are their corners').
 void cutAtContacts(const Scene& scene, const Contacts& contacts, Welder& welder, PatchMesh& mesh,
