@@ -841,6 +841,59 @@ TEST(Visibility, ALargeEmitterIsSeenAroundAPlateBelowIt) {
   }
 }
 
+// An emitting panel (4 × 4, one patch) 2 cm above a floor of 16 × 16 quads, facing it, nothing
+// between (a ceiling over a lamp hung just below it, upside down). A floor vertex's radiance is
+// ρ L⁰ F, F the closed-form factor of the panel. The panel fills nearly the whole hemisphere, so
+// its visibility would be judged in hundreds of pieces per vertex: since nothing can stand between
+// the two (shaftClear), it is seen whole without a ray. The plate test above holds the other case,
+// a blocker inside the hull; with shaftClear always saying clear it fails.
+TEST(Visibility, AnEmitterJustAboveAFloorIsSeenWholeWithoutRays) {
+  Scene scene;
+  scene.materials = {material("floor", 0.5, 0), material("panel", 0, 1)};
+  const int n = 16;
+  Primitive floor;
+  floor.material = 0;
+  floor.hasNormals = true;
+  for (int i = 0; i <= n; ++i)
+    for (int k = 0; k <= n; ++k) {
+      floor.positions.push_back({-2 + 4.0 * i / n, 0, -2 + 4.0 * k / n});
+      floor.normals.push_back({0, 1, 0});
+    }
+  for (uint32_t i = 0; i < n; ++i)
+    for (uint32_t k = 0; k < n; ++k) {
+      const uint32_t a = i * (n + 1) + k, b = a + n + 1;
+      floor.triangles.push_back({a, a + 1, b + 1});
+      floor.triangles.push_back({a, b + 1, b});
+    }
+  scene.primitives.push_back(floor);
+  const double h = 0.02;
+  scene.primitives.push_back(quadPrimitive({Vec3{-2, h, -2}, {2, h, -2}, {2, h, 2}, {-2, h, 2}}, 1));  // faces −y
+  for (int p = 0; p < 2; ++p) scene.primitives[p].primitive = p;
+  const PatchMesh mesh = tessellate(scene, TessellateOptions{});
+  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+    RadiosityOptions o;
+    o.transport = transport;
+    const Solution s = solveRadiosity(scene, mesh, o);
+    const char* name = transport == TransportMode::kHierarchical ? "hierarchical" : "exact";
+    double worst = 0;
+    int count = 0;
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      const Vec3& x = mesh.positions[v];
+      if (mesh.vertexMaterial[v] != 0) continue;
+      const double f = parallelRectangleFactor(x.x, x.z, -2, 2, -2, 2, h);
+      worst = std::max(worst, std::abs(s.vertexRadiance[v].x - 0.5 * f) / (0.5 * f));
+      ++count;
+    }
+    ASSERT_EQ(count, (n + 1) * (n + 1));
+    EXPECT_LT(worst, 1e-3) << name;
+    // The hierarchical transport counts its pair rays: 118,760 with the pieces traced, 1,320 (the
+    // panel's corners gathering from the floor's patches) without.
+    if (transport == TransportMode::kHierarchical) {
+      EXPECT_LT(s.nearRays, size_t(5 * count));
+    }
+  }
+}
+
 // A closed emitting box of reflectance ρ has L = L⁰ / (1 − ρ) everywhere. At ρ = 0.995 Jacobi needs
 // about 2,800 iterations and gets there (the early stop must not cut it); at ρ = 1 there is no
 // steady state, and the solve stops once its residual's fall could not reach the goal within

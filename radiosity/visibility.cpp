@@ -183,4 +183,28 @@ void Occlusion::patchesNear(const Vec3& p, double radius, std::vector<uint32_t>&
   rtcPointQuery(impl_->scene, &query, &context, collect, &out);
 }
 
+bool Occlusion::anyNear(const Vec3& p, double radius, const std::function<bool(uint32_t)>& blocks) const {
+  alignas(16) RTCPointQuery query{};
+  query.x = float(p.x);
+  query.y = float(p.y);
+  query.z = float(p.z);
+  query.radius = float(radius);
+  query.time = 0;
+  RTCPointQueryContext context;
+  rtcInitPointQueryContext(&context);
+  struct Search {
+    const std::function<bool(uint32_t)>* blocks;
+    bool found = false;
+  } search{&blocks};
+  auto ask = [](RTCPointQueryFunctionArguments* args) {
+    auto* s = static_cast<Search*>(args->userPtr);
+    if (s->found || !(*s->blocks)(args->primID)) return false;
+    s->found = true;
+    args->query->radius = 0;  // nothing more to visit
+    return true;
+  };
+  rtcPointQuery(impl_->scene, &query, &context, ask, &search);
+  return search.found;
+}
+
 }  // namespace radbake
