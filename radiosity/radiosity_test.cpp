@@ -726,6 +726,25 @@ double cornerFactor(double a, double b, double h) {
   return (a / ra * std::atan(b / ra) + b / rb * std::atan(a / rb)) / (2 * kPi);
 }
 
+// A 4 × 4 floor at y = 0 (material 0, facing +y) of n × n quads, each two triangles.
+Primitive floorGrid(int n) {
+  Primitive floor;
+  floor.material = 0;
+  floor.hasNormals = true;
+  for (int i = 0; i <= n; ++i)
+    for (int k = 0; k <= n; ++k) {
+      floor.positions.push_back({-2 + 4.0 * i / n, 0, -2 + 4.0 * k / n});
+      floor.normals.push_back({0, 1, 0});
+    }
+  for (uint32_t i = 0; i < uint32_t(n); ++i)
+    for (uint32_t k = 0; k < uint32_t(n); ++k) {
+      const uint32_t a = i * (n + 1) + k, b = a + n + 1;  // a → b along x, a → a + 1 along z
+      floor.triangles.push_back({a, a + 1, b + 1});
+      floor.triangles.push_back({a, b + 1, b});
+    }
+  return floor;
+}
+
 double parallelRectangleFactor(double x, double z, double x0, double x1, double z0, double z1, double h) {
   return cornerFactor(x1 - x, z1 - z, h) - cornerFactor(x0 - x, z1 - z, h) - cornerFactor(x1 - x, z0 - z, h) +
          cornerFactor(x0 - x, z0 - z, h);
@@ -792,21 +811,7 @@ TEST(Visibility, ALargeEmitterIsSeenAroundAPlateBelowIt) {
   Scene scene;
   scene.materials = {material("floor", 0.5, 0), material("ceiling", 0, 1), material("plate", 0, 0)};
   const int n = 16;
-  Primitive floor;
-  floor.material = 0;
-  floor.hasNormals = true;
-  for (int i = 0; i <= n; ++i)
-    for (int k = 0; k <= n; ++k) {
-      floor.positions.push_back({-2 + 4.0 * i / n, 0, -2 + 4.0 * k / n});
-      floor.normals.push_back({0, 1, 0});
-    }
-  for (uint32_t i = 0; i < n; ++i)
-    for (uint32_t k = 0; k < n; ++k) {
-      const uint32_t a = i * (n + 1) + k, b = a + n + 1;  // a → b along x, a → a + 1 along z
-      floor.triangles.push_back({a, a + 1, b + 1});
-      floor.triangles.push_back({a, b + 1, b});
-    }
-  scene.primitives.push_back(floor);
+  scene.primitives.push_back(floorGrid(n));
   scene.primitives.push_back(quadPrimitive({Vec3{-2, 2, -2}, {2, 2, -2}, {2, 2, 2}, {-2, 2, 2}}, 1));              // faces −y
   // The plate at sizes that are not round: shadow edges that fall on the pieces' dyadic points
   // (the pieces' probes once sat there) would make any estimate exact or wrong by luck.
@@ -851,21 +856,7 @@ TEST(Visibility, AnEmitterJustAboveAFloorIsSeenWholeWithoutRays) {
   Scene scene;
   scene.materials = {material("floor", 0.5, 0), material("panel", 0, 1)};
   const int n = 16;
-  Primitive floor;
-  floor.material = 0;
-  floor.hasNormals = true;
-  for (int i = 0; i <= n; ++i)
-    for (int k = 0; k <= n; ++k) {
-      floor.positions.push_back({-2 + 4.0 * i / n, 0, -2 + 4.0 * k / n});
-      floor.normals.push_back({0, 1, 0});
-    }
-  for (uint32_t i = 0; i < n; ++i)
-    for (uint32_t k = 0; k < n; ++k) {
-      const uint32_t a = i * (n + 1) + k, b = a + n + 1;
-      floor.triangles.push_back({a, a + 1, b + 1});
-      floor.triangles.push_back({a, b + 1, b});
-    }
-  scene.primitives.push_back(floor);
+  scene.primitives.push_back(floorGrid(n));
   const double h = 0.02;
   scene.primitives.push_back(quadPrimitive({Vec3{-2, h, -2}, {2, h, -2}, {2, h, 2}, {-2, h, 2}}, 1));  // faces −y
   for (int p = 0; p < 2; ++p) scene.primitives[p].primitive = p;

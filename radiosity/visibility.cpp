@@ -168,19 +168,10 @@ void Occlusion::visibleEach(std::span<const Segment> segments, bool* visible) co
 }
 
 void Occlusion::patchesNear(const Vec3& p, double radius, std::vector<uint32_t>& out) const {
-  alignas(16) RTCPointQuery query{};
-  query.x = float(p.x);
-  query.y = float(p.y);
-  query.z = float(p.z);
-  query.radius = float(radius);
-  query.time = 0;
-  RTCPointQueryContext context;
-  rtcInitPointQueryContext(&context);
-  auto collect = [](RTCPointQueryFunctionArguments* args) {
-    static_cast<std::vector<uint32_t>*>(args->userPtr)->push_back(args->primID);
-    return false;  // the radius stays
-  };
-  rtcPointQuery(impl_->scene, &query, &context, collect, &out);
+  anyNear(p, radius, [&](uint32_t patch) {
+    out.push_back(patch);
+    return false;  // all of them
+  });
 }
 
 bool Occlusion::anyNear(const Vec3& p, double radius, const std::function<bool(uint32_t)>& blocks) const {
