@@ -741,6 +741,12 @@ bool shaftClear(const Sight& sight, const Vec3& n, const std::array<Vec3, 4>& q,
   const double eps = sight.occlusion.epsilon(), lift = eps * 10;
   std::array<Vec3, 4> b;
   for (int k = 0; k < 4; ++k) b[k] = q[k] + qNormal * lift;
+  // The planes below bound the hull only for a flat, convex quad (a curved surface's patch may be
+  // neither): otherwise the rays decide.
+  for (int k = 0; k < 4; ++k) {
+    if (std::abs(dot(qNormal, b[k] - b[0])) > eps) return false;
+    if (dot(cross(b[(k + 1) % 4] - b[k], b[(k + 2) % 4] - b[(k + 1) % 4]), qNormal) < 0) return false;
+  }
   const Vec3 from = sight.from, centre = (b[0] + b[1] + b[2] + b[3]) / 4;
   // Planes (m, o): outside where dot(m, x) > o + eps.
   std::array<std::pair<Vec3, double>, 6> planes;
