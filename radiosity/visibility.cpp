@@ -174,7 +174,7 @@ void Occlusion::patchesNear(const Vec3& p, double radius, std::vector<uint32_t>&
   });
 }
 
-bool Occlusion::anyNear(const Vec3& p, double radius, const std::function<bool(uint32_t)>& blocks) const {
+bool Occlusion::anyNear(const Vec3& p, double radius, const std::function<bool(uint32_t)>& accept) const {
   alignas(16) RTCPointQuery query{};
   query.x = float(p.x);
   query.y = float(p.y);
@@ -184,12 +184,12 @@ bool Occlusion::anyNear(const Vec3& p, double radius, const std::function<bool(u
   RTCPointQueryContext context;
   rtcInitPointQueryContext(&context);
   struct Search {
-    const std::function<bool(uint32_t)>* blocks;
+    const std::function<bool(uint32_t)>* accept;
     bool found = false;
-  } search{&blocks};
+  } search{&accept};
   auto ask = [](RTCPointQueryFunctionArguments* args) {
     auto* s = static_cast<Search*>(args->userPtr);
-    if (s->found || !(*s->blocks)(args->primID)) return false;
+    if (s->found || !(*s->accept)(args->primID)) return false;
     s->found = true;
     args->query->radius = 0;  // nothing more to visit
     return true;

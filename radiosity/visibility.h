@@ -44,9 +44,9 @@ class Occlusion {
   // The patches whose bounds come within `radius` of `p` (appended to `out`; a superset of those
   // within that distance: the caller measures them).
   void patchesNear(const Vec3& p, double radius, std::vector<uint32_t>& out) const;
-  // Whether `blocks(patch)` holds for some patch whose bounds come within `radius` of `p`; asks
+  // Whether `accept(patch)` holds for some patch whose bounds come within `radius` of `p`; asks
   // no more once one does.
-  bool anyNear(const Vec3& p, double radius, const std::function<bool(uint32_t)>& blocks) const;
+  bool anyNear(const Vec3& p, double radius, const std::function<bool(uint32_t)>& accept) const;
   // Cut-out patches (alpha MASK): `passes(patch, u, v)` says whether light goes through `patch` at
   // Embree's quad coordinates (v0 = (0,0), v1 = (1,0), v2 = (1,1), v3 = (0,1); split v0 v1 v3 /
   // v2 v3 v1). Set before any query; only patches with a mask are asked.
