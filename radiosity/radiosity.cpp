@@ -766,8 +766,7 @@ bool shaftClear(const Sight& sight, const Vec3& n, const std::array<Vec3, 4>& q,
   Bounds box;
   box.add(from);
   for (const Vec3& x : b) box.add(x);
-  const Vec3 middle = (box.lo + box.hi) / 2;
-  return !sight.occlusion.anyNear(middle, length(box.hi - box.lo) / 2 + eps, [&](uint32_t patch) {
+  return !sight.occlusion.anyNear((box.lo + box.hi) / 2, box.diagonal() / 2 + eps, [&](uint32_t patch) {
     const auto c = corners(sight.mesh, sight.mesh.patches[patch]);
     for (int p = 0; p < count; ++p) {
       const auto& [m, o] = planes[p];
