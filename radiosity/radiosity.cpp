@@ -894,15 +894,17 @@ std::array<double, 4> pairVisibility(const Sight& sight, const Vec3& n, const st
   // over the patch, so largest at a corner). A/(π d²) alone (until the fourteenth session) gave
   // the patches along a curved vertex's horizon line, and those seen edge-on, 5 to hundreds of
   // rays for light they barely send: issue 16's room, default bake, 205M -> 170M pair rays.
-  double hn = 0, hm = 0;
-  for (const Vec3& x : q) {
-    hn = std::max(hn, dot(n, x - sight.from));
-    hm = std::max(hm, std::abs(dot(qNormal, sight.from - x)));
-  }
-  if (resolve.faint > 0 && d >= 2 * r && area * std::min(1.0, hn / d) * std::min(1.0, hm / d) < resolve.faint * kPi * d * d) {
-    ++rays;
-    const double seen = sight.visible(c + qNormal * (sight.occlusion.epsilon() * 10)) ? 1 : 0;
-    return {seen, seen, seen, seen};
+  if (resolve.faint > 0 && d >= 2 * r) {
+    double hn = 0, hm = 0;
+    for (const Vec3& x : q) {
+      hn = std::max(hn, dot(n, x - sight.from));
+      hm = std::max(hm, std::abs(dot(qNormal, sight.from - x)));
+    }
+    if (area * std::min(1.0, hn / d) * std::min(1.0, hm / d) < resolve.faint * kPi * d * d) {
+      ++rays;
+      const double seen = sight.visible(c + qNormal * (sight.occlusion.epsilon() * 10)) ? 1 : 0;
+      return {seen, seen, seen, seen};
+    }
   }
   // Below the piece size for certain (the factor is at most A/(π d²)): judged whole, without
   // visibleFraction's closed-form factor (most pairs of a finely tessellated scene).
