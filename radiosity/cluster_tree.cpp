@@ -77,7 +77,10 @@ ClusterTree buildClusterTree(const std::vector<TreeItem>& items) {
       std::array<uint32_t, 6> inBin{};
       for (auto it = begin; it != end; ++it) ++inBin[bin[*it]];
       uint32_t leftCount = 0;
-      if (std::count_if(inBin.begin(), inBin.end(), [](uint32_t c) { return c > 0; }) > 1) {
+      if (std::any_of(begin, end, [&](uint32_t p) { return items[p].part != items[*begin].part; })) {
+        const uint8_t first = items[*std::min_element(begin, end, [&](uint32_t a, uint32_t b) { return items[a].part < items[b].part; })].part;
+        leftCount = uint32_t(std::stable_partition(begin, end, [&](uint32_t p) { return items[p].part == first; }) - begin);
+      } else if (std::count_if(inBin.begin(), inBin.end(), [](uint32_t c) { return c > 0; }) > 1) {
         int pivot = 1;  // bins below go left: the boundary that splits the count most evenly
         uint32_t below = 0, best = UINT32_MAX;
         for (int b = 1; b < 6; ++b) {

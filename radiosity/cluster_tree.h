@@ -28,6 +28,9 @@ struct TreeItem {
   // Where the item sits, if not the mean of its points: a receiving patch's area centroid (the
   // constant method), where a linear field takes its mean over the patch.
   std::optional<Vec3> centre;
+  // Items of different parts are split apart before anything else (the receivers that gather by
+  // rays, tracedBackSides, get subtrees of their own).
+  uint8_t part = 0;
 };
 
 struct TreeNode {
@@ -50,8 +53,8 @@ struct ClusterTree {
   bool empty() const { return nodes.empty(); }
 };
 
-// Built in a fixed order (items first separated by the dominant axis of their normal, then median
-// splits on the longest axis, ties by index): the same tree, and the same bits downstream, for any
+// Built in a fixed order (items first separated by part, then by the dominant axis of their
+// normal, then median splits on the longest axis, ties by index): the same tree, and the same bits downstream, for any
 // thread count.
 ClusterTree buildClusterTree(const std::vector<TreeItem>& items);
 

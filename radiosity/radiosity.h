@@ -67,6 +67,7 @@ struct Solution {
   double closureCorrection = 0;
   size_t darkUnknowns = 0;  // enclosed in a room with no emitter or light inside: black, not solved
   size_t contactUnknowns = 0;  // vertices under an object standing on their surface, gathered beside it
+  size_t tracedUnknowns = 0;   // back sides seen little: gathered by fixed rays, not walked (hierarchical)
   // Power balance in radiance × area × π units, averaged over the three channels: what the
   // emitters send out and what the surfaces absorb of it and its reflections (sky light is not
   // counted). In a closed scene they agree; the gap is the light that leaves an open scene (plus

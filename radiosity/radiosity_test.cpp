@@ -1185,6 +1185,85 @@ TEST(Hierarchical, ALampUnderTheCeilingAgreesWithExactTransport) {
   expectWithinIssueBounds(exact.vertexRadiance, hier.vertexRadiance);
 }
 
+// A tube (0.2 × 0.2 × 0.6, closed at one end, double-sided as Blender exports it) lying on the
+// floor of `scene`, its open end toward +z. Its inside is the back side: written nowhere, and
+// deep in the tube it sees the room only through the open end.
+Primitive openTube(int material) {
+  Primitive tube = boxPrimitive({0.3, 0.001, 0.15}, {0.5, 0.201, 0.75}, false, material);
+  tube.triangles.erase(tube.triangles.begin() + 2, tube.triangles.begin() + 4);  // no +z end
+  return tube;
+}
+
+// Back sides seen little (docs/radiosity.md) gather by rays: the tube's inside in a unit room lit by
+// a panel (0.2 × 0.2, 20 cm under the ceiling), hierarchical against exact: every vertex within the
+// issue's bounds, and the inside against its own mean within 5% RMS and 25% at worst (measured
+// 2.4% and 11%, the walk 0.45% and 2.2%; with the traced rows left empty 31% and 87%). The same
+// bits for one thread and two. (With the lamp 2 cm under the ceiling the walk itself is 7% of the
+// mean off exact here, traced or not: the tube's top and the floor beside it, +33%; not yet
+// understood, docs/results.md.)
+TEST(Hierarchical, AnOpenTubesInsideGathersByRaysAndAgreesWithExactTransport) {
+  Scene scene;
+  scene.materials = {material("wall", 0.5, 0), material("lamp", 0.5, 1), material("tube", 0.5, 0, true)};
+  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {1, 1, 1}, true, 0));
+  scene.primitives.push_back(quadPrimitive({Vec3{0.4, 0.8, 0.4}, {0.6, 0.8, 0.4}, {0.6, 0.8, 0.6}, {0.4, 0.8, 0.6}}, 1));  // facing down
+  scene.primitives.push_back(openTube(2));
+  for (int k = 0; k < 3; ++k) scene.primitives[k].primitive = k;
+  TessellateOptions t;
+  t.subdivide = 8;
+  const PatchMesh mesh = tessellate(scene, t);
+  RadiosityOptions o;
+  o.transport = TransportMode::kExact;
+  const Solution exact = solveRadiosity(scene, mesh, o);
+  EXPECT_EQ(exact.tracedUnknowns, 0u);
+  o.transport = TransportMode::kHierarchical;
+  auto run = [&](int threads) {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
+    return solveRadiosity(scene, mesh, o);
+  };
+  const Solution hier = run(2);
+  EXPECT_GT(hier.tracedUnknowns, 20u);
+  expectWithinIssueBounds(exact.vertexRadiance, hier.vertexRadiance);
+  // The inside itself (what the walls see through the open end), against its own mean: the
+  // bound above is relative to the whole scene's, lamp included, which the dark inside hardly moves.
+  std::set<uint32_t> inside;
+  for (const Patch& p : mesh.patches)
+    if (p.backSide && scene.primitives[p.primitive].material == 2) inside.insert(p.v.begin(), p.v.end());
+  double mean = 0, squares = 0, largest = 0;
+  for (uint32_t v : inside) {
+    const double d = hier.vertexRadiance[v].x - exact.vertexRadiance[v].x;
+    mean += exact.vertexRadiance[v].x / inside.size();
+    squares += d * d / inside.size();
+    largest = std::max(largest, std::abs(d));
+  }
+  EXPECT_LT(std::sqrt(squares) / mean, 0.05);
+  EXPECT_LT(largest / mean, 0.25);
+  const Solution one = run(1);
+  for (size_t v = 0; v < one.vertexRadiance.size(); ++v) EXPECT_TRUE(one.vertexRadiance[v] == hier.vertexRadiance[v]) << v;
+}
+
+// The white tube alone under a uniform sky of 1: every ray from its inside ends at the sky or at a
+// surface of radiance 1, so L = 1 there too. That holds only if a traced row's near kernels, its
+// rays' share of the rest and its sky add up to the whole hemisphere (their rays alone, without
+// that share: 18% off). Within 1e-4, as for the block on a floor (the outside is walked; measured
+// 2e-5). The exact transport's own rows are 5 to 8 there: an open white cavity magnifies any
+// excess of a row over its hemisphere, and the exact rows of its inside have some.
+TEST(Sky, AnOpenTubesTracedInsideIsUniformUnderASky) {
+  Scene scene;
+  scene.materials = {material("white", 1.0, 0, true)};
+  scene.primitives.push_back(openTube(0));
+  TessellateOptions t;
+  t.subdivide = 6;
+  const PatchMesh mesh = tessellate(scene, t);
+  RadiosityOptions o;
+  o.transport = TransportMode::kHierarchical;
+  o.sky = {1, 1, 1};
+  const Solution s = solveRadiosity(scene, mesh, o);
+  EXPECT_GT(s.tracedUnknowns, 20u);
+  double worst = 0;
+  for (const Vec3& L : s.vertexRadiance) worst = std::max(worst, std::abs(L.x - 1));
+  EXPECT_LT(worst, 1e-4);
+}
+
 }  // namespace
 
 namespace {

@@ -37,6 +37,7 @@ values = radiance(doc, binary)
 check(all(v == v and 0 <= v < 1e6 for v in values), f"{len(values) // 3} radiance values finite and non-negative")
 check(sum(1 for v in values if v > 0) > 0.9 * len(values), "the room is lit nearly everywhere")
 check(report["solver"]["enclosedUnknowns"] > 0, "the closed room is recognised as closed")
+check(report["solver"]["tracedUnknowns"] > 0, "the inside of the open, double-sided Suzanne gathers by rays")
 sys.exit(1 if failures else 0)
 PY
 node "$tools/validate.js" "$tmp/baked.glb"
