@@ -1171,16 +1171,23 @@ TEST(Hierarchical, ARefinedCornellBoxHasNoNegativeRadiance) {
 // Links judged by their factor alone, a faint link made on probes from elsewhere in its group, and
 // closure over the whole row each put it off (0.83% RMS and 4.4% largest until the third session
 // of 2026-12-03; docs/radiosity.md, "Refinement by light").
+// `scene` split n × n a face, and a solve of it with `transport` (default options otherwise).
+PatchMesh uniformMesh(const Scene& scene, int n) {
+  TessellateOptions t;
+  t.subdivide = n;
+  return tessellate(scene, t);
+}
+Solution solveWith(const Scene& scene, const PatchMesh& mesh, TransportMode transport) {
+  RadiosityOptions o;
+  o.transport = transport;
+  return solveRadiosity(scene, mesh, o);
+}
+
 TEST(Hierarchical, ALampUnderTheCeilingAgreesWithExactTransport) {
   const Scene scene = lampRoom();
-  TessellateOptions t;
-  t.subdivide = 12;
-  const PatchMesh mesh = tessellate(scene, t);
-  RadiosityOptions o;
-  o.transport = TransportMode::kExact;
-  const Solution exact = solveRadiosity(scene, mesh, o);
-  o.transport = TransportMode::kHierarchical;
-  const Solution hier = solveRadiosity(scene, mesh, o);
+  const PatchMesh mesh = uniformMesh(scene, 12);
+  const Solution exact = solveWith(scene, mesh, TransportMode::kExact);
+  const Solution hier = solveWith(scene, mesh, TransportMode::kHierarchical);
   EXPECT_GT(hier.refinedLinks, 0u);
   expectWithinIssueBounds(exact.vertexRadiance, hier.vertexRadiance);
 }
@@ -1208,17 +1215,12 @@ TEST(Hierarchical, AnOpenTubesInsideGathersByRaysAndAgreesWithExactTransport) {
   scene.primitives.push_back(quadPrimitive({Vec3{0.4, 0.8, 0.4}, {0.6, 0.8, 0.4}, {0.6, 0.8, 0.6}, {0.4, 0.8, 0.6}}, 1));  // facing down
   scene.primitives.push_back(openTube(2));
   for (int k = 0; k < 3; ++k) scene.primitives[k].primitive = k;
-  TessellateOptions t;
-  t.subdivide = 8;
-  const PatchMesh mesh = tessellate(scene, t);
-  RadiosityOptions o;
-  o.transport = TransportMode::kExact;
-  const Solution exact = solveRadiosity(scene, mesh, o);
+  const PatchMesh mesh = uniformMesh(scene, 8);
+  const Solution exact = solveWith(scene, mesh, TransportMode::kExact);
   EXPECT_EQ(exact.tracedUnknowns, 0u);
-  o.transport = TransportMode::kHierarchical;
   auto run = [&](int threads) {
     tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
-    return solveRadiosity(scene, mesh, o);
+    return solveWith(scene, mesh, TransportMode::kHierarchical);
   };
   const Solution hier = run(2);
   EXPECT_GT(hier.tracedUnknowns, 20u);
