@@ -1856,6 +1856,7 @@ void closeRows(Hierarchical& h, const Receivers& recv, Closure& closure) {
 // through its back sides, keeps its walk). A lamp's back 2 cm under a ceiling sees the ceiling's
 // front with every ray and keeps its walk.
 constexpr int kTracedGrid = 16;
+constexpr double kTracedProgress = 0.05;  // the share of the progress they report
 constexpr double kTracedSeen = 0.05;
 constexpr double kTracedShare = 1e-3;
 
@@ -1868,7 +1869,7 @@ struct TracedBackSides {
 
 TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
                                 const Closure& closure, const std::vector<bool>& gathers, const std::vector<bool>& bright,
-                                const NearPair& nearPair) {
+                                const NearPair& nearPair, Ticker& ticker) {
   const size_t nv = recv.point.size();
   TracedBackSides out;
   out.traced.assign(nv, false);
@@ -1888,6 +1889,7 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
         std::all_of(own.begin(), own.end(), [&](uint32_t p) { return mesh.patches[p].backSide; }))
       candidates.push_back(uint32_t(v));
   }
+  ticker.add(nv - candidates.size());  // the others have nothing to do here
   if (candidates.empty()) return out;
   constexpr int kRays = kTracedGrid * kTracedGrid;
   const double far = 2 * occlusion.sceneSize();
@@ -1895,32 +1897,54 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
   std::atomic<size_t> rays{0};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint32_t> near, ignore;
+    std::array<int64_t, kRays> hits;  // per ray, the patch facing it that it meets first; kOpen, kNone
+    constexpr int64_t kOpen = -1, kNone = -2;
     for (size_t c = range.begin(); c != range.end(); ++c) {
       const uint32_t v = candidates[c];
       const Vec3 &from = recv.origin[v], &n = recv.normal[v];
       const Sight sight{occlusion, mesh, from, recv.ignored(v), recv.own(v)};
       const auto [t, b] = tangentFrame(n);
+      // The rays first: the share of them that meets a written side decides whether v is traced.
+      int seen = 0;
+      for (int k = 0; k < kRays; ++k) {
+        const Vec3 end = from + malleyDirection<kTracedGrid>(k, t, b, n) * far;
+        if (sight.crossesOwn(end)) {  // into one of its own patches: a near one (below)
+          hits[k] = recv.own(v)[0];
+          continue;
+        }
+        int64_t hit = occlusion.firstHit(from, end, sight.ignore);
+        // The side facing the ray's origin is seen; the back of a one-sided surface sends nothing.
+        if (hit >= 0 && !(dot(mesh.patches[hit].normal, end - from) < 0)) hit = mesh.patches[hit].twin >= 0 ? mesh.patches[hit].twin : kNone;
+        else if (hit < 0) hit = kOpen;
+        hits[k] = hit;
+        seen += hit >= 0 && !mesh.patches[hit].backSide;
+      }
+      seenShare[c] = double(seen) / kRays;
+      rays.fetch_add(kRays, std::memory_order_relaxed);
+      ticker.add(1);
+      if (seenShare[c] > kTracedSeen) continue;  // walked
       Row& row = out.rows[v];
-      size_t traced = 0;
       // The near field exactly, as the walk would take it: the patches within twice the reach of
       // the vertex's own (touching ones take their contact limits, which rays from the offset
       // origin miss: a Suzanne's inside where its eye meets the head got 95% of its row from two
-      // such patches), bright ones left to the walk.
+      // such patches), bright ones left to the walk; its own patches too (at a concave curved
+      // vertex they rise into its hemisphere), not their twins.
       double reach = 0;
       for (uint32_t p : recv.own(v))
         for (const Vec3& x : corners(mesh, mesh.patches[p])) reach = std::max(reach, length(x - recv.point[v]));
-      // Its own patches too (at a concave curved vertex they rise into its hemisphere), not their twins.
       near.assign(recv.own(v).begin(), recv.own(v).end());
       occlusion.patchesNear(recv.point[v], 2 * reach, near);
-      const auto ignored = recv.ignored(v);
       std::erase_if(near, [&](uint32_t p) { return bright[p] || recv.isOwnTwin(v, p); });
       std::sort(near.begin(), near.end());
       near.erase(std::unique(near.begin(), near.end()), near.end());
+      size_t nearRays = 0;
+      const auto ignored = recv.ignored(v);
       for (uint32_t p : near) {
         ignore.assign(ignored.begin(), ignored.end());
         ignore.push_back(0);
-        traced += nearPair(v, p, ignore, row);
+        nearRays += nearPair(v, p, ignore, row);
       }
+      rays.fetch_add(nearRays, std::memory_order_relaxed);
       double nearSum = 0;
       for (const auto& entry : row) nearSum += entry.second;
       // The rays whose first hit is not a near patch sample the rest of the hemisphere. Outside a
@@ -1932,31 +1956,19 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       // the kernels' contact limits and the rays disagree, and the level-0 Blender room was 6.4%
       // off exact at such vertices with the share, 0.69% (as walked) without it.
       Row rest;
-      int seen = 0, open = 0, nearHits = 0;
+      int open = 0, nearHits = 0;
       for (int k = 0; k < kRays; ++k) {
-        const Vec3 d = malleyDirection<kTracedGrid>(k, t, b, n);
-        const Vec3 end = from + d * far;
-        if (sight.crossesOwn(end)) {  // into one of its own patches: a near one
-          ++nearHits;
-          continue;
-        }
-        int64_t hit = occlusion.firstHit(from, end, sight.ignore);
-        if (hit < 0) {
-          ++open;
-          continue;
-        }
-        // The side facing the ray's origin is seen; the back of a one-sided surface sends nothing.
-        if (!(dot(mesh.patches[hit].normal, d) < 0)) hit = mesh.patches[hit].twin;
+        const int64_t hit = hits[k];
+        if (hit == kOpen) ++open;
         if (hit < 0) continue;
-        const Patch& p = mesh.patches[hit];
-        seen += !p.backSide;
         if (std::binary_search(near.begin(), near.end(), uint32_t(hit))) {
           ++nearHits;
           continue;
         }
         if (bright[hit]) continue;  // the walk gathers it (rays would miss a small lamp)
-        const Vec3& q0 = mesh.positions[p.v[0]];
-        const double along = dot(p.normal, q0 - from) / dot(p.normal, d);
+        const Patch& p = mesh.patches[hit];
+        const Vec3 d = malleyDirection<kTracedGrid>(k, t, b, n);
+        const double along = dot(p.normal, mesh.positions[p.v[0]] - from) / dot(p.normal, d);
         const auto [ps, pt] = patchParameters(corners(mesh, p), p.normal, from + d * along);
         const auto w = shapeFunctions(ps, pt);
         for (int j = 0; j < 4; ++j)
@@ -1966,9 +1978,7 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       for (auto& entry : rest) entry.second *= perRay;
       row.insert(row.end(), rest.begin(), rest.end());
       canonicalize(row);
-      seenShare[c] = double(seen) / kRays;
       out.open[v] = open * perRay;
-      rays.fetch_add(kRays + traced, std::memory_order_relaxed);
     }
   });
   out.rays = rays.load();
@@ -2968,6 +2978,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     return r;
   }());
   const bool hierarchical = options.transport == TransportMode::kHierarchical;
+  // The traced back sides take the first share of the progress (hierarchical, bilinear).
+  const double tracedTo = hierarchical && bilinear ? kTracedProgress : 0;
   ReceiverGroups groups;
   TracedBackSides traced;
   std::vector<bool> bright;  // per patch: brighter than the scene's mean emission (emissionWeight)
@@ -2978,7 +2990,9 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       const double meanEmitted = meanEmission(mesh);
       bright.resize(mesh.patches.size());
       for (size_t p = 0; p < bright.size(); ++p) bright[p] = emissionWeight(mesh.patches[p], meanEmitted) > 1;
-      traced = tracedBackSides(mesh, occlusion, *recv, *closure, gathers, bright, nearPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, options.accuracy));
+      Ticker tracedTicker(options.progress, n, 0, tracedTo);
+      traced = tracedBackSides(mesh, occlusion, *recv, *closure, gathers, bright,
+                               nearPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, options.accuracy), tracedTicker);
       for (size_t v = 0; v < items.size(); ++v) items[v].part = traced.traced[v];
       solution.tracedUnknowns = size_t(std::count(traced.traced.begin(), traced.traced.end(), true));
     }
@@ -2986,8 +3000,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   }
   // With a sky, its pass takes the first part of the progress (it is one more walk, or for the
   // exact transport one more pass over every pair).
-  const double transportFrom = hasSky(options) ? kSkyProgress : 0;
-  Ticker skyTicker(options.progress, n, 0, transportFrom);
+  const double transportFrom = hasSky(options) ? kSkyProgress : tracedTo;
+  Ticker skyTicker(options.progress, n, tracedTo, transportFrom);
   auto skyFractions = [&] {
     if (!hierarchical)
       return exactSkyFractions(mesh, *recv, closure->rows, coverPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, 0),
