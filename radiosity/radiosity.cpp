@@ -2021,15 +2021,18 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   // The traced rows are filled before the walk, which adds only their bright emitters.
   h.traced = std::move(traced.traced);
   h.bright = std::move(bright);
+  MemoryBudget memory;  // (the traced rows count against it as the walk's rows do)
+  memory.limit = options.transportMemoryBytes;
+  size_t tracedEntries = 0;
   for (size_t v = 0; v < traced.rows.size(); ++v) {  // (none for the constant method)
     if (traced.rows[v].empty()) continue;
     h.near[v].resize(traced.rows[v].size());
     for (size_t e = 0; e < traced.rows[v].size(); ++e) h.near[v][e] = {traced.rows[v][e].first, float(traced.rows[v][e].second)};
+    tracedEntries += traced.rows[v].size();
     Row().swap(traced.rows[v]);
   }
+  memory.add(tracedEntries * sizeof(h.near[0][0]));
   h.nearRays += traced.rays;
-  MemoryBudget memory;
-  memory.limit = options.transportMemoryBytes;
   h.deferredHidden.resize(h.groups.tasks.size());
   WalkSetup setup{mesh, occlusion, recv, h.groups, h.source, all, false, options.accuracy, memory};
   setup.deferredHidden = &h.deferredHidden;
