@@ -542,6 +542,20 @@ std::pair<double, double> patchParameters(const std::array<Vec3, 4>& q, const Ve
   return {2 * std::clamp(u, 0.0, 1.0) - 1, 2 * std::clamp(v, 0.0, 1.0) - 1};
 }
 
+// Both sides of a double-sided surface are patches in one place: a ray along d that meets patch
+// `hit` sees the one facing its origin (hit's twin where hit faces away); the back of a one-sided
+// patch, nothing (-1).
+int64_t facingSide(const PatchMesh& mesh, int64_t hit, const Vec3& d) {
+  return dot(mesh.patches[hit].normal, d) < 0 ? hit : mesh.patches[hit].twin;
+}
+
+// The shape functions of planar patch p where the ray from `from` along d meets its plane.
+std::array<double, 4> shapeFunctionsAlong(const PatchMesh& mesh, const Patch& p, const Vec3& from, const Vec3& d) {
+  const double along = dot(p.normal, mesh.positions[p.v[0]] - from) / dot(p.normal, d);
+  const auto [s, t] = patchParameters(corners(mesh, p), p.normal, from + d * along);
+  return shapeFunctions(s, t);
+}
+
 // Whether a point of a flat surface is covered: every one of 8 rays into its hemisphere, up to
 // the scene's size, first meets the back of a one-sided patch or the inside of a closed dark
 // object (a double-sided box: the side it meets is the twin facing the ray) — the floor under a
@@ -554,11 +568,9 @@ bool covered(const PatchMesh& mesh, const Occlusion& occlusion, const Closure& c
     const Vec3 dir = n * lift + (t * std::cos(phi) + b * std::sin(phi)) * std::sqrt(1 - lift * lift);
     const int64_t hit = occlusion.firstHit(from, from + dir * (2 * occlusion.sceneSize()), ignore);
     if (hit < 0) return false;
-    const Patch& patch = mesh.patches[size_t(hit)];
-    const bool front = dot(patch.normal, dir) < 0;  // the hit patch faces the ray
-    if (!front && patch.twin < 0) continue;         // the back of a one-sided surface: inside
-    const size_t seen = front ? size_t(hit) : size_t(patch.twin);
-    if (!closure.darkPatches[seen]) return false;
+    const int64_t seen = facingSide(mesh, hit, dir);
+    if (seen < 0) continue;  // the back of a one-sided surface: inside
+    if (!closure.darkPatches[size_t(seen)]) return false;
   }
   return true;
 }
@@ -1345,17 +1357,16 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
   // Per receiver node its traced vertices, per source node its bright patches (w.traced).
   std::vector<uint32_t> tracedIn, brightIn;
   if (w.traced) {
-    tracedIn.assign(R.nodes.size(), 0);
-    for (size_t k = R.nodes.size(); k-- > 0;) {
-      const TreeNode& node = R.nodes[k];
-      tracedIn[k] = node.count == 1 ? uint32_t((*w.traced)[R.order[node.first]]) : tracedIn[node.child[0]] + tracedIn[node.child[1]];
-    }
-    brightIn.assign(S.nodes.size(), 0);
-    for (size_t k = S.nodes.size(); k-- > 0;) {
-      const TreeNode& node = S.nodes[k];
-      brightIn[k] = node.count == 1 ? uint32_t(w.bright && (*w.bright)[w.patchOf[S.order[node.first]]])
-                                    : brightIn[node.child[0]] + brightIn[node.child[1]];
-    }
+    auto countIn = [](const ClusterTree& tree, auto flagged) {  // bottom-up: children after their parent
+      std::vector<uint32_t> in(tree.nodes.size(), 0);
+      for (size_t k = tree.nodes.size(); k-- > 0;) {
+        const TreeNode& node = tree.nodes[k];
+        in[k] = node.count == 1 ? uint32_t(flagged(tree.order[node.first])) : in[node.child[0]] + in[node.child[1]];
+      }
+      return in;
+    };
+    tracedIn = countIn(R, [&](uint32_t v) { return (*w.traced)[v]; });
+    brightIn = countIn(S, [&](uint32_t item) { return w.bright && (*w.bright)[w.patchOf[item]]; });
   }
   tbb::parallel_for(tbb::blocked_range<size_t>(0, w.groups.tasks.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint32_t> ignore;
@@ -1897,8 +1908,9 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
   std::atomic<size_t> rays{0};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint32_t> near, ignore;
-    std::array<int64_t, kRays> hits;  // per ray, the patch facing it that it meets first; kOpen, kNone
-    constexpr int64_t kOpen = -1, kNone = -2;
+    std::array<Vec3, kRays> dirs;
+    std::array<int64_t, kRays> hits;  // per ray, the patch facing it that it meets first (facingSide), or kOpen
+    constexpr int64_t kOpen = -2;
     for (size_t c = range.begin(); c != range.end(); ++c) {
       const uint32_t v = candidates[c];
       const Vec3 &from = recv.origin[v], &n = recv.normal[v];
@@ -1907,17 +1919,15 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       // The rays first: the share of them that meets a written side decides whether v is traced.
       int seen = 0;
       for (int k = 0; k < kRays; ++k) {
-        const Vec3 end = from + malleyDirection<kTracedGrid>(k, t, b, n) * far;
+        dirs[k] = malleyDirection<kTracedGrid>(k, t, b, n);
+        const Vec3 end = from + dirs[k] * far;
         if (sight.crossesOwn(end)) {  // into one of its own patches: a near one (below)
           hits[k] = recv.own(v)[0];
           continue;
         }
-        int64_t hit = occlusion.firstHit(from, end, sight.ignore);
-        // The side facing the ray's origin is seen; the back of a one-sided surface sends nothing.
-        if (hit >= 0 && !(dot(mesh.patches[hit].normal, end - from) < 0)) hit = mesh.patches[hit].twin >= 0 ? mesh.patches[hit].twin : kNone;
-        else if (hit < 0) hit = kOpen;
-        hits[k] = hit;
-        seen += hit >= 0 && !mesh.patches[hit].backSide;
+        const int64_t hit = occlusion.firstHit(from, end, sight.ignore);
+        hits[k] = hit < 0 ? kOpen : facingSide(mesh, hit, dirs[k]);
+        seen += hits[k] >= 0 && !mesh.patches[hits[k]].backSide;
       }
       seenShare[c] = double(seen) / kRays;
       rays.fetch_add(kRays, std::memory_order_relaxed);
@@ -1960,17 +1970,14 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       for (int k = 0; k < kRays; ++k) {
         const int64_t hit = hits[k];
         if (hit == kOpen) ++open;
-        if (hit < 0) continue;
+        if (hit < 0) continue;  // open, or the back of a one-sided patch
         if (std::binary_search(near.begin(), near.end(), uint32_t(hit))) {
           ++nearHits;
           continue;
         }
         if (bright[hit]) continue;  // the walk gathers it (rays would miss a small lamp)
         const Patch& p = mesh.patches[hit];
-        const Vec3 d = malleyDirection<kTracedGrid>(k, t, b, n);
-        const double along = dot(p.normal, mesh.positions[p.v[0]] - from) / dot(p.normal, d);
-        const auto [ps, pt] = patchParameters(corners(mesh, p), p.normal, from + d * along);
-        const auto w = shapeFunctions(ps, pt);
+        const auto w = shapeFunctionsAlong(mesh, p, from, dirs[k]);
         for (int j = 0; j < 4; ++j)
           if (w[j] != 0) rest.emplace_back(p.v[j], w[j]);
       }
@@ -2548,7 +2555,7 @@ double openness(const Sight& sight, const Vec3& n, double radius, bool glowIsOpe
       if (!seen[k] && glowIsOpen) {
         const Vec3& end = to[first + k];
         int64_t hit = sight.occlusion.firstHit(sight.from, end, sight.ignore);
-        if (hit >= 0 && !(dot(sight.mesh.patches[hit].normal, end - sight.from) < 0)) hit = sight.mesh.patches[hit].twin;
+        if (hit >= 0) hit = facingSide(sight.mesh, hit, end - sight.from);
         seen[k] = hit >= 0 && luminance(sight.mesh.patches[hit].emission) > 0;
       }
       through += seen[k];
@@ -2649,15 +2656,9 @@ Gathered gatherBounce(const BounceField& field, const Vec3& from, const Vec3& n)
     const Vec3 d = malleyDirection<S>(k, t, b, n);
     int64_t hit = field.occlusion.firstHit(from, from + d * reach);
     if (hit < 0) continue;  // the sky is direct light
-    // Both sides of a double-sided surface are patches in one place: the one facing the ray's
-    // origin is seen; the back of a one-sided surface sends nothing.
-    if (!(dot(mesh.patches[hit].normal, d) < 0)) hit = mesh.patches[hit].twin;
+    hit = facingSide(mesh, hit, d);
     if (hit < 0) continue;
-    const Patch& p = mesh.patches[hit];
-    const Vec3& q0 = mesh.positions[p.v[0]];
-    const double along = dot(p.normal, q0 - from) / dot(p.normal, d);
-    const auto [ps, pt] = patchParameters(corners(mesh, p), p.normal, from + d * along);
-    const auto w = shapeFunctions(ps, pt);
+    const auto w = shapeFunctionsAlong(mesh, mesh.patches[hit], from, d);
     double value = 0;
     for (int j = 0; j < 4; ++j) value += w[j] * field.corner[hit][j];
     value = std::max(0.0, value);
