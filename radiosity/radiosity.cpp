@@ -1275,9 +1275,11 @@ struct WalkSetup {
   // `bright` marks (per mesh patch) and nothing in the sky pass.
   const std::vector<bool>* traced = nullptr;
   const std::vector<bool>* bright = nullptr;
-  // The sky pass: per vertex, whether its rays saw the back of any patch (seesBacks). A group none
-  // of whose vertices did drops the clusters that show it only their backs.
+  // The sky pass: per vertex, whether its rays saw the back of any patch (backSeeing). A group none
+  // of whose vertices did drops the clusters that show it only their backs, from its points and
+  // from its rays' origins, which lie up to `originReach` away.
   const std::vector<bool>* seesBacks = nullptr;
+  double originReach = 0;
 };
 
 // A link's factor and the error estimate of its centroid expansions (walkPairs), with the source's
@@ -1480,7 +1482,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // double-sided surface were otherwise walked down to single patches wherever the front
         // ones were).
         const Heights facing = heightsOver(c, g);
-        if ((!w.cover || (w.seesBacks && backsIn[gi] == 0)) && facing.high < -facing.rounding) continue;
+        if (!w.cover && facing.high < -facing.rounding) continue;
+        if (w.seesBacks && backsIn[gi] == 0 && facing.high < -facing.rounding - w.originReach) continue;
         const bool mixed = !w.cover && ((g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count));
         const double ratio = estimate.ratio;
         // (Curved groups once had this raised by 1 + 15 sin(cone): three Suzanne vertices of the
@@ -1786,14 +1789,18 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
   if (!traced.empty()) setup.traced = &traced;  // their rays found their sky
   const std::vector<bool> seesBacks = backSeeing(mesh, occlusion, recv, closure, groups, nearRays);
   setup.seesBacks = &seesBacks;
+  for (size_t v = 0; v < nv; ++v) setup.originReach = std::max(setup.originReach, length(recv.origin[v] - recv.point[v]));
   std::vector<double> nodeError;  // the cover pass's own estimate is not reported
   std::atomic<size_t> pairRays{0};
   const auto links = walkPairs(
       setup, [&](uint32_t v) { return !closure.rows[v]; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
         size_t traced = 0;
-        const Patch& p = mesh.patches[patch];  // behind its plane, as skyCover judges it
-        if (!seesBacks[v] && dot(p.normal, recv.point[v] - mesh.positions[p.v[0]]) < -occlusion.epsilon()) return size_t(0);
+        // Behind its plane, as skyCover judges it, and from the rays' origin (where a plane passes
+        // between the two, a contact, the rays do not tell).
+        const Patch& p = mesh.patches[patch];
+        auto behind = [&](const Vec3& x) { return dot(p.normal, x - mesh.positions[p.v[0]]) < -occlusion.epsilon(); };
+        if (!seesBacks[v] && behind(recv.point[v]) && behind(recv.origin[v])) return size_t(0);
         covered[v] += coverPair(v, patch, ignore, traced);
         pairRays.fetch_add(traced, std::memory_order_relaxed);
         return size_t(0);
