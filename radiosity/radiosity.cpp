@@ -1109,10 +1109,12 @@ std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<NodeMoment>
 // Rays per receiver and cluster link, to patch centres spread over the cluster. All through: the
 // link is made; none: the cluster is hidden from the group; some: a group is opened.
 constexpr uint32_t kClusterRays = 4;
-// The sky pass links at this share of --accuracy: a cover link's error has the same sign at every
-// vertex (measured on a 2CylinderEngine part with --sky 1: 3.6% largest error at the full
-// accuracy, 1.5% at a quarter, the transport's own; the pass runs once, so it costs little).
-constexpr double kSkyAccuracy = 0.25;
+// Under a sky the hierarchical transport links at this share of --accuracy: its rows' errors are
+// its sky's (skyFromRows), which weigh by the sky's radiance, brighter than the surfaces'. On the
+// 2CylinderEngine part (--sky 1, --refine off) against exact: 0.097% RMS and 1.12% largest at the
+// full accuracy, 0.054% and 0.60% at half, 0.039% and 0.57% at a quarter. (The separate sky pass
+// before it linked at a quarter: there a cover link's error had the same sign at every vertex.)
+constexpr double kSkyAccuracy = 0.5;
 // The sky pass asks each vertex this many² fixed rays whether it sees the back of a patch (backSeeing).
 constexpr int kBackGrid = 16;
 // A pair whose link rays are all blocked is dropped as hidden only after up to this many rays per
@@ -1241,8 +1243,9 @@ struct MemoryBudget {
 // `accuracy`) and seen whole by the link's rays; a hidden cluster is dropped; anything else splits
 // the larger group, down to (vertex, patch), which gets the exact kernel.
 // Transport: a link needs every patch facing every receiver, and light never crosses a closed
-// surface. Cover (the sky pass): every patch facing the group or every patch facing away (a
-// surface covers the sky from either side), no closure. `leaf(v, patch)` handles the exact
+// surface. Cover (the sky pass, hierarchicalCover): every patch facing the group or every patch
+// facing away (a surface covers the sky from either side), no closure; with `backsOnly`, only the
+// latter. `leaf(v, patch)` handles the exact
 // (vertex, patch) pairs and returns the bytes it kept (for the memory budget); `taskDone(node)`, if
 // given, is called when a task's receiver subtree is walked (its vertices have all their pairs);
 // `gathers(v)` says whether vertex v needs anything at all.
@@ -1280,6 +1283,9 @@ struct WalkSetup {
   // from its rays' origins, which lie up to `originReach` away.
   const std::vector<bool>* seesBacks = nullptr;
   double originReach = 0;
+  // Cover mode: only what patches seen from behind cover (the bilinear method's sky pass, whose
+  // fronts are the transport's rows).
+  bool backsOnly = false;
 };
 
 // A link's factor and the error estimate of its centroid expansions (walkPairs), with the source's
@@ -1410,7 +1416,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           const uint32_t v = R.order[g.first + k / c.count], item = S.order[c.first + k % c.count];
           const Vec3& m = w.mesh.patches[w.patchOf[item]].normal;
           const double side = dot(m, w.recv.origin[v] - centre[item]);
-          if (!w.cover && side <= 0) continue;  // shows v its back (in cover mode it covers)
+          if (side > 0 ? w.backsOnly : !w.cover) continue;  // a front of the transport's, a back of the cover's
           const Vec3 to = centre[item] + m * (side > 0 ? lift : -lift);
           if (dot(w.recv.normal[v], to - w.recv.point[v]) <= 0) continue;  // below v's horizon
           segments.push_back({w.recv.origin[v], to, w.recv.ignored(v)});
@@ -1484,6 +1490,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         const Heights facing = heightsOver(c, g);
         if (!w.cover && facing.high < -facing.rounding) continue;
         if (w.seesBacks && backsIn[gi] == 0 && facing.high < -facing.rounding - w.originReach) continue;
+        if (w.backsOnly && facing.low >= -w.occlusion.epsilon()) continue;  // only fronts
         const bool mixed = !w.cover && ((g.enclosed != 0 && g.enclosed != g.count) || (c.enclosed != 0 && c.enclosed != c.count));
         const double ratio = estimate.ratio;
         // (Curved groups once had this raised by 1 + 15 sin(cone): three Suzanne vertices of the
@@ -1522,7 +1529,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           const bool turning = !w.cover && facing.high > facing.rounding && dipError(-facing.low) < w.accuracy * kHorizonShare;
           const bool toward = alpha + beta + gamma < kPi / 2 || facing.low >= -facing.rounding || turning;
           if (away && !w.cover) continue;  // every patch shows the group its back
-          if (toward || away) {
+          if (w.backsOnly ? away : toward || away) {
             // Rays from every receiver of the group, each to a patch of the cluster (spread over
             // it by a multiplicative hash): fewer, from sample receivers only, let light through
             // to the floor beside and under a block (measured: 3% errors there).
@@ -1694,9 +1701,10 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
 // floor under a sky of 1 went to 1.5 there), and it put partly hidden patches near a vertex up to
 // 30% off Σ_j K_ij. Seen from behind, a double-sided patch's twin covers in its place (its front is
 // K's); a one-sided patch, the same solid angle with the polygon reversed. `ignore` has a free
-// last slot.
+// last slot. With `backsOnly`, a patch K takes (seen from its front) covers nothing here: the
+// hierarchical transport's rows hold it (skyFromRows).
 double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, const KernelOptions& kernel,
-                size_t i, size_t source, std::vector<uint32_t>& ignore, const PairSight& resolve, size_t& rays) {
+                size_t i, size_t source, std::vector<uint32_t>& ignore, const PairSight& resolve, bool backsOnly, size_t& rays) {
   const Patch& patch = mesh.patches[source];
   // Covering is geometry, not light: a double-sided surface covers once (its front patch stands
   // for both sides), and the vertex's own twin covers nothing.
@@ -1707,6 +1715,7 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
   const auto own = recv.own(i);
   const bool isOwn = std::find(own.begin(), own.end(), uint32_t(source)) != own.end();
   const bool behind = !isOwn && dot(patch.normal, p - mesh.positions[patch.v[0]]) < -occlusion.epsilon();
+  if (backsOnly && !behind) return 0;
   const uint32_t from = behind && patch.twin >= 0 ? uint32_t(patch.twin) : uint32_t(source);
   auto q = corners(mesh, mesh.patches[from]);
   Vec3 normal = mesh.patches[from].normal;
@@ -1736,22 +1745,25 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
 using NearPair = std::function<size_t(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row)>;
 using CoverPair = std::function<double(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays)>;
 
-// Whether any of kBackGrid² fixed cosine-distributed rays from vertex v first meets the back of a
-// patch (a one-sided patch from behind, or a double-sided surface's back twin), for the vertices
-// the sky pass covers. The sky pass walks the backs only for these: elsewhere a patch seen from
-// behind lies behind a front. On the 2CylinderEngine part (one-sided, `--sky 1`) 475 of 8,546
-// vertices see a back, and half of the sky pass's exact pairs were patches seen from behind, 98%
-// of them hidden (5 rays each). A back no ray meets is smaller than their spacing.
+// Whether any of kBackGrid² fixed cosine-distributed rays from vertex v first meets a one-sided
+// patch from behind (with `backTwins`, or a double-sided surface's back twin), for the vertices
+// the sky pass covers (not enclosed, not traced). Those walk the patches seen from behind
+// (hierarchicalCover); elsewhere a back lies behind a front. On the 2CylinderEngine part
+// (one-sided, `--sky 1`) 475 of 8,546 vertices see a back, and half of the sky pass's exact pairs
+// had been patches seen from behind, 98% of them hidden (5 rays each). A back no ray meets is
+// smaller than their spacing.
 std::vector<bool> backSeeing(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
-                             const Closure& closure, const ReceiverGroups& groups, size_t& rays) {
+                             const Closure& closure, const ReceiverGroups& groups, const std::vector<bool>& traced,
+                             bool backTwins, size_t& rays) {
   const size_t nv = recv.point.size();
   std::vector<uint8_t> sees(nv, 0);  // (not vector<bool>: written in parallel)
-  std::atomic<size_t> traced{0};
+  std::atomic<size_t> shotAll{0};
   const double far = 2 * occlusion.sceneSize();
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 64), [&](const tbb::blocked_range<size_t>& range) {
     size_t shot = 0;
     for (size_t v = range.begin(); v != range.end(); ++v) {
-      if (closure.rows[v] || groups.leafOf[v] == kNoLeaf) continue;  // no sky to cover, or nothing in front
+      // No sky, nothing in front, or a sky of its own rays.
+      if (closure.rows[v] || groups.leafOf[v] == kNoLeaf || (!traced.empty() && traced[v])) continue;
       const Sight sight{occlusion, mesh, recv.origin[v], recv.ignored(v), recv.own(v)};
       const Vec3& n = recv.normal[v];
       const auto [t, b] = tangentFrame(n);
@@ -1761,33 +1773,42 @@ std::vector<bool> backSeeing(const PatchMesh& mesh, const Occlusion& occlusion, 
         if (sight.crossesOwn(end)) continue;  // its own patches: the walk takes them exactly
         ++shot;
         const int64_t hit = occlusion.firstHit(recv.origin[v], end, sight.ignore);
-        if (hit < 0) continue;
-        const int64_t side = facingSide(mesh, hit, d);
-        sees[v] = side < 0 || mesh.patches[side].backSide;
+        const int64_t side = hit >= 0 ? facingSide(mesh, hit, d) : 0;
+        sees[v] = side < 0 || (backTwins && mesh.patches[side].backSide);
       }
     }
-    traced.fetch_add(shot, std::memory_order_relaxed);
+    shotAll.fetch_add(shot, std::memory_order_relaxed);
   });
-  rays += traced.load();
+  rays += shotAll.load();
   return std::vector<bool>(sees.begin(), sees.end());
 }
 
-// The sky fractions with the cluster walk (cover mode): near patches exactly (`coverPair`), far
-// clusters as n · w |w · Σ A n| / (π |w|⁴) per receiver, w from it to the cluster's centroid.
-// Patches seen from behind are walked only for the vertices that see a back (backSeeing).
-std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
-                                             const Closure& closure, const ReceiverGroups& groups, double accuracy,
-                                             const CoverPair& coverPair, const std::vector<bool>& traced, MemoryBudget& memory,
-                                             Ticker& ticker, size_t& rays, size_t& nearRays) {
+// What patches cover of each receiver's hemisphere (the sky pass), with the cluster walk in cover
+// mode: near patches exactly (`coverPair`), far clusters as n · w |w · Σ A n| / (π |w|⁴) per
+// receiver, w from it to the cluster's centroid. With `backsOnly` (the bilinear method, whose
+// transport's rows cover the fronts: skyFromRows) only one-sided patches seen from behind: a
+// double-sided surface seen from behind shows its back twin, whose front K holds. Otherwise every
+// patch, a double-sided surface once. Patches seen from behind are walked only for the vertices
+// whose rays see a back (backSeeing); for the others only those whose plane passes between their
+// point and their rays' origin (a contact: from the origin the rays see that patch's front).
+std::vector<double> hierarchicalCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv,
+                                      const Closure& closure, const ReceiverGroups& groups, double accuracy,
+                                      const CoverPair& coverPair, bool backsOnly, const std::vector<bool>& traced,
+                                      MemoryBudget& memory, Ticker& ticker, size_t& rays, size_t& nearRays) {
   const size_t nv = recv.point.size();
-  std::vector<uint32_t> front;  // a double-sided surface covers once
-  for (size_t p = 0; p < mesh.patches.size(); ++p)
-    if (!mesh.patches[p].backSide) front.push_back(uint32_t(p));
-  const ClusterTree tree = patchTree(mesh, front, closure);
   std::vector<double> covered(nv, 0.0);
-  WalkSetup setup{mesh, occlusion, recv, groups, tree, front, true, accuracy, memory};
+  std::vector<uint32_t> sources;
+  for (size_t p = 0; p < mesh.patches.size(); ++p)
+    if (!mesh.patches[p].backSide && (!backsOnly || mesh.patches[p].twin < 0)) sources.push_back(uint32_t(p));
+  if (sources.empty()) {  // backs only, and double-sided throughout (as Blender exports)
+    ticker.add(nv);
+    return covered;
+  }
+  const ClusterTree tree = patchTree(mesh, sources, closure);
+  WalkSetup setup{mesh, occlusion, recv, groups, tree, sources, true, accuracy, memory};
+  setup.backsOnly = backsOnly;
   if (!traced.empty()) setup.traced = &traced;  // their rays found their sky
-  const std::vector<bool> seesBacks = backSeeing(mesh, occlusion, recv, closure, groups, nearRays);
+  const std::vector<bool> seesBacks = backSeeing(mesh, occlusion, recv, closure, groups, traced, !backsOnly, nearRays);
   setup.seesBacks = &seesBacks;
   for (size_t v = 0; v < nv; ++v) setup.originReach = std::max(setup.originReach, length(recv.origin[v] - recv.point[v]));
   std::vector<double> nodeError;  // the cover pass's own estimate is not reported
@@ -1795,12 +1816,12 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
   const auto links = walkPairs(
       setup, [&](uint32_t v) { return !closure.rows[v]; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
-        size_t traced = 0;
-        // Behind its plane, as skyCover judges it, and from the rays' origin (where a plane passes
-        // between the two, a contact, the rays do not tell).
+        // A vertex whose rays saw no back takes none behind from its point and from the rays'
+        // origin (and with backsOnly, coverPair takes none in front).
         const Patch& p = mesh.patches[patch];
         auto behind = [&](const Vec3& x) { return dot(p.normal, x - mesh.positions[p.v[0]]) < -occlusion.epsilon(); };
         if (!seesBacks[v] && behind(recv.point[v]) && behind(recv.origin[v])) return size_t(0);
+        size_t traced = 0;
         covered[v] += coverPair(v, patch, ignore, traced);
         pairRays.fetch_add(traced, std::memory_order_relaxed);
         return size_t(0);
@@ -1809,25 +1830,18 @@ std::vector<double> hierarchicalSkyFractions(const PatchMesh& mesh, const Occlus
   nearRays += pairRays.load();
   // Each vertex adds the links of its groups, from its leaf to the root.
   const std::vector<int32_t>& parent = groups.parent;
-  std::vector<double> sky(nv, 0.0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 256), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t v = range.begin(); v != range.end(); ++v) {
-      if (closure.rows[v]) continue;  // covered whole: no sky
-      if (groups.leafOf[v] == kNoLeaf) {  // nothing in front of it (a dark vertex is enclosed)
-        sky[v] = 1;
-        continue;
-      }
-      double cover = covered[v];
+      if (groups.leafOf[v] == kNoLeaf) continue;
       for (int32_t k = int32_t(groups.leafOf[v]); k >= 0; k = parent[k])
         for (const ClusterLink& link : links[k]) {
           const Vec3 w = tree.nodes[link.source].centroid - recv.point[v];
           const double d2 = dot(w, w);
-          cover += link.visible * dot(recv.normal[v], w) * std::abs(dot(w, tree.nodes[link.source].areaNormal)) / (kPi * d2 * d2);
+          covered[v] += link.visible * dot(recv.normal[v], w) * std::abs(dot(w, tree.nodes[link.source].areaNormal)) / (kPi * d2 * d2);
         }
-      sky[v] = std::max(0.0, 1 - cover);
     }
   });
-  return sky;
+  return covered;
 }
 
 // Walks `setup` and adds what it finds to h: near entries merged into each vertex's row (packed at
@@ -2135,7 +2149,11 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
   for (size_t k = 0; k < S.order.size(); ++k) lightSum[k + 1] = lightSum[k] + std::max(0.0, light[S.order[k]]);
   const double mean = lightSum.back() / S.nodes[0].area;
   if (!(mean > 0)) return 0;
-  auto brightness = [&](const TreeNode& c) { return (lightSum[c.first + c.count] - lightSum[c.first]) / c.area / mean; };
+  const double sky = luminance(options.sky) / mean;
+  auto brightness = [&](const TreeNode& c) {
+    const double own = (lightSum[c.first + c.count] - lightSum[c.first]) / c.area / mean;
+    return std::max(own, sky - own);
+  };
   for (size_t k = 0; k < S.nodes.size(); ++k) weight[k] = std::max(1.0, brightness(S.nodes[k]));
   // The links to walk again, per task (tasks own disjoint receiver subtrees).
   const auto& tasks = h.groups.tasks;
@@ -2233,7 +2251,8 @@ double constantPairFactor(const PatchMesh& mesh, const Occlusion& occlusion, siz
 
 // The share of patch k's hemisphere that patch l covers, seen from either side (constant method):
 // l's factor from k times the share of five probes on it seen from k's centre. Counts its rays.
-double constantCover(const PatchMesh& mesh, const Occlusion& occlusion, size_t k, size_t l, double tolerance, size_t& rays) {
+double constantCover(const PatchMesh& mesh, const Occlusion& occlusion, size_t k, size_t l, double tolerance, bool backsOnly,
+                     size_t& rays) {
   const Patch& pk = mesh.patches[k];
   const auto qk = corners(mesh, pk);
   const uint32_t twin = pk.twin >= 0 ? uint32_t(pk.twin) : uint32_t(k);
@@ -2249,7 +2268,11 @@ double constantCover(const PatchMesh& mesh, const Occlusion& occlusion, size_t k
   for (const Vec3& c : qk) inPlane &= std::abs(dot(mesh.patches[l].normal, c - ql[0])) <= occlusion.epsilon();
   if (!above || inPlane) return 0;
   Vec3 toward = mesh.patches[l].normal;  // l's side that k sees
-  if (dot(mesh.patches[l].normal, pointOnPatch(qk, 0, 0) - ql[0]) < 0) {
+  const bool behind = dot(mesh.patches[l].normal, pointOnPatch(qk, 0, 0) - ql[0]) < 0;
+  // With `backsOnly`, l seen from its front covers nothing here: the hierarchical transport's rows
+  // hold it (skyFromRows).
+  if (backsOnly && !behind) return 0;
+  if (behind) {
     std::swap(ql[1], ql[3]);
     toward = -toward;
   }
@@ -2298,16 +2321,17 @@ NearPair nearPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Rece
 }
 
 CoverPair coverPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, Method method,
-                     double kernelTolerance, double accuracy) {
+                     double kernelTolerance, double accuracy, bool backsOnly) {
   const double tolerance = pairTolerance(method, kernelTolerance, accuracy), faint = accuracy * kFaintPairShare;
   if (method == Method::kConstant)
-    return [&mesh, &occlusion, tolerance](uint32_t k, uint32_t patch, std::vector<uint32_t>&, size_t& rays) {
-      return constantCover(mesh, occlusion, k, patch, tolerance, rays);
+    return [&mesh, &occlusion, tolerance, backsOnly](uint32_t k, uint32_t patch, std::vector<uint32_t>&, size_t& rays) {
+      return constantCover(mesh, occlusion, k, patch, tolerance, backsOnly, rays);
     };
   KernelOptions kernel;
   kernel.relativeTolerance = tolerance;
-  return [&mesh, &occlusion, &recv, kernel, faint](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays) {
-    return skyCover(mesh, occlusion, recv, kernel, v, patch, ignore, {faint, kVisibilityPiece}, rays);
+  return [&mesh, &occlusion, &recv, kernel, faint, backsOnly](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore,
+                                                              size_t& rays) {
+    return skyCover(mesh, occlusion, recv, kernel, v, patch, ignore, {faint, kVisibilityPiece}, backsOnly, rays);
   };
 }
 
@@ -2385,6 +2409,25 @@ Gather hierarchicalGather(const Hierarchical& H, const PatchMesh& mesh) {
       }
     });
   };
+}
+
+// The hierarchical transport's sky fractions: what each unknown's row leaves of its hemisphere,
+// 1 − (K 1)_i, less what one-sided patches seen from behind cover (hierarchicalBackCover). The sky
+// and K then agree on what covers a receiver to rounding, whatever the links err: a white scene
+// under a sky of 1 is 1, and a row's error moves its sky the other way, so the two mostly cancel.
+// Until the seventeenth session the sky was a walk of its own over every patch, two thirds of the
+// whole 2CylinderEngine's bake. Enclosed unknowns see no sky; traced ones what their rays leave by.
+std::vector<double> skyFromRows(const Gather& gather, const std::vector<double>& backCover, const std::vector<bool>& enclosed,
+                                const std::vector<bool>& traced, const std::vector<double>& open) {
+  const size_t n = enclosed.size();
+  std::vector<Vec3> rowSum(n);
+  gather(std::vector<Vec3>(n, Vec3{1, 1, 1}), rowSum);
+  std::vector<double> sky(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    if (enclosed[i]) continue;
+    sky[i] = !traced.empty() && traced[i] ? open[i] : std::max(0.0, 1 - rowSum[i].x - backCover[i]);
+  }
+  return sky;
 }
 
 // Jacobi iteration L ← L⁰ + ρ ⊙ (K L): every row independent, so parallel and bit-identical for
@@ -2522,8 +2565,10 @@ std::vector<Vec3> withDirectLight(std::vector<Vec3> source, const std::vector<Ve
 }
 
 bool hasSky(const RadiosityOptions& options) { return options.sky.x > 0 || options.sky.y > 0 || options.sky.z > 0; }
-// The share of the progress that the sky pass takes, before the transport's.
+// The share of the progress that the sky pass takes, before the transport's: the exact transport's
+// (every pair once more), the hierarchical one's (the backs' walk, hierarchicalBackCover).
 constexpr double kSkyProgress = 0.3;
+constexpr double kBackCoverProgress = 0.1;
 // The hierarchical transport's progress: its walk ends at the first, the first solve at the second,
 // the refinement's walk at the third; the final solve takes the rest.
 constexpr double kRefineProgress[3] = {0.7, 0.8, 0.9};
@@ -2532,9 +2577,8 @@ constexpr double kFirstResidual = 1e-2;
 
 // The source term: emission plus, with a sky, the reflected sky light ρ · (uncovered fraction) · sky.
 std::vector<Vec3> withSky(const std::vector<Vec3>& emission, const std::vector<Vec3>& reflectance,
-                          const RadiosityOptions& options, const std::function<std::vector<double>()>& fractions) {
-  if (!hasSky(options)) return emission;
-  const std::vector<double> sky = fractions();
+                          const RadiosityOptions& options, const std::vector<double>& sky) {
+  if (!hasSky(options) || sky.empty()) return emission;
   std::vector<Vec3> source = emission;
   for (size_t i = 0; i < source.size(); ++i)
     source[i] += Vec3{reflectance[i].x * options.sky.x, reflectance[i].y * options.sky.y, reflectance[i].z * options.sky.z} * sky[i];
@@ -3013,7 +3057,11 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
   return summary;
 }
 
-Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& options) {
+Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& asked) {
+  // Under a sky the hierarchical transport's rows are also its sky's cover (skyFromRows), whose
+  // errors weigh by the sky's radiance: its links are made at kSkyAccuracy of --accuracy.
+  RadiosityOptions options = asked;
+  if (hasSky(options) && options.transport == TransportMode::kHierarchical) options.accuracy *= kSkyAccuracy;
   Solution solution;
   solution.method = options.method;
   solution.interreflection = true;
@@ -3057,27 +3105,38 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     }
     groups = receiverGroups(items, gathers);
   }
-  // With a sky, its pass takes the first part of the progress (it is one more walk, or for the
-  // exact transport one more pass over every pair).
-  const double transportFrom = hasSky(options) ? kSkyProgress : tracedTo;
+  // With a sky, its pass takes the first part of the progress: for the exact transport one more
+  // pass over every pair; for the hierarchical one the walk of what patches seen from behind cover
+  // (the rest of its sky is what the transport's rows leave open, skyFromRows).
+  const bool skyFromTheRows = hierarchical && bilinear;
+  const double transportFrom = !hasSky(options) ? tracedTo : skyFromTheRows ? tracedTo + kBackCoverProgress : kSkyProgress;
   Ticker skyTicker(options.progress, n, tracedTo, transportFrom);
-  auto skyFractions = [&] {
-    if (!hierarchical)
-      return exactSkyFractions(mesh, *recv, closure->rows, coverPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, 0),
-                               skyTicker);
-    const double accuracy = options.accuracy * kSkyAccuracy;
-    MemoryBudget memory;  // the sky pass keeps its links until its fractions are summed
+  std::vector<double> sky, covered, tracedOpen;  // the sky, or what the cover walk found (skyFromRows)
+  if (hasSky(options) && !hierarchical) {
+    sky = exactSkyFractions(mesh, *recv, closure->rows, coverPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, 0, false),
+                            skyTicker);
+  } else if (hasSky(options)) {
+    // The bilinear method's sky is what its rows leave open less what backs cover. The constant
+    // method's is what every patch covers: its patch factors and its covers judge a patch
+    // straddling another's plane differently (from any corner, from the centre), and its rows
+    // would have left a floor patch under a block's foot half open.
+    MemoryBudget memory;  // the cover walk keeps its links until its cover is summed
     memory.limit = options.transportMemoryBytes;
-    std::vector<double> sky = hierarchicalSkyFractions(mesh, occlusion, *recv, *closure, groups, accuracy,
-                                                       coverPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, accuracy),
-                                                       traced.traced, memory, skyTicker, solution.clusterRays, solution.nearRays);
-    for (size_t v = 0; v < traced.traced.size(); ++v)
-      if (traced.traced[v]) sky[v] = closure->rows[v] ? 0 : traced.open[v];  // what its rays leave by
-    return sky;
+    covered = hierarchicalCover(mesh, occlusion, *recv, *closure, groups, options.accuracy,
+                                  coverPairs(mesh, occlusion, *recv, options.method, options.kernelTolerance, options.accuracy, skyFromTheRows),
+                                  skyFromTheRows, traced.traced, memory, skyTicker, solution.clusterRays, solution.nearRays);
+    tracedOpen = traced.open;
+    if (!skyFromTheRows) {
+      sky.assign(n, 0.0);
+      for (size_t i = 0; i < n; ++i) sky[i] = closure->rows[i] ? 0 : std::max(0.0, 1 - covered[i]);
+    }
+  }
+  const std::vector<Vec3> direct = bilinear ? bilinearDirectLight(scene, mesh, occlusion, *recv) : constantDirectLight(scene, mesh, occlusion);
+  // (The hierarchical transport's sky joins once its rows are walked.)
+  auto sourceWith = [&](const std::vector<double>& fractions) {
+    return withDirectLight(withSky(emission, reflectance, options, fractions), reflectance, direct);
   };
-  const std::vector<Vec3> source =
-      withDirectLight(withSky(emission, reflectance, options, skyFractions), reflectance,
-                      bilinear ? bilinearDirectLight(scene, mesh, occlusion, *recv) : constantDirectLight(scene, mesh, occlusion));
+  std::vector<Vec3> source = sourceWith(sky);
   Transport K;
   Hierarchical H;
   Gather gather = exactGather(K);
@@ -3086,7 +3145,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
   std::vector<Vec3>& L = bilinear ? solution.vertexRadiance : solution.patchRadiance;
   std::vector<Vec3> gathered;
   double solveFrom = 0.8;
-  if (anyLight(source)) {  // no light at all: black is the exact answer, no transport needed
+  // No light at all: black is the exact answer, no transport needed.
+  if (anyLight(source) || (skyFromTheRows && hasSky(options))) {
     if (hierarchical) {
       // The near kernels to a tenth of --accuracy, not to the exact transport's 1e-6: a row's near
       // entries then err by at most that share of its total, below what each link may, and the
@@ -3097,6 +3157,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       Ticker ticker(options.progress, n, transportFrom, kRefineProgress[0]);
       H = hierarchicalTransport(mesh, occlusion, options, *recv, *closure, std::move(groups), nearPair, std::move(traced), std::move(bright), ticker);
       gather = hierarchicalGather(H, mesh);
+      auto rowSky = [&] { return skyFromRows(gather, covered, closure->rows, H.traced, tracedOpen); };
+      if (hasSky(options) && skyFromTheRows) source = sourceWith(rowSky());
       // A first solve to kFirstResidual shows where the light is; the links that carry too much of
       // it for their error estimate are walked again (refineByLight), and the solve goes on from
       // there.
@@ -3105,6 +3167,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       Ticker refineTicker(options.progress, n, kRefineProgress[1], kRefineProgress[2]);
       solution.refinedLinks = refineByLight(H, mesh, occlusion, options, *recv, nearPair, L, refineTicker);
       closeRows(H, *recv, *closure);  // after pairs walked again (links, or pairs once called hidden)
+      if (hasSky(options) && skyFromTheRows) source = sourceWith(rowSky());  // the rows as the final solve gathers them
       solveFrom = kRefineProgress[2];
       solution.matrixEntries = H.nearEntries;
       solution.farLinks = H.linkCount;

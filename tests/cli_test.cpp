@@ -1525,8 +1525,9 @@ TEST(Memory, HierarchicalTransportPastItsBudgetExitsThreeAndWritesNothing) {
 }
 
 TEST(Progress, SkyPassReportsBeforeTheTransport) {
-  // The sky pass is a walk of its own (on the whole 2CylinderEngine, minutes): it reports in the
-  // first part of the solve's progress, the transport after it, and neither goes back.
+  // The sky pass is a walk of its own (the bilinear method's over the patches seen from behind, the
+  // constant method's over every patch): it reports in the first part of the solve's progress, the
+  // transport after it, and neither goes back.
   auto solveProgress = [](const std::vector<std::string>& extra) {
     std::vector<std::string> args{"bake", (kTestData / "scenes" / "two_plates.gltf").string(), "-o",
                                   (tempDir() / "sky_progress.glb").string(), "--progress", "json"};
