@@ -1110,10 +1110,11 @@ std::vector<Vec3> gatherFar(const Hierarchical& h, const std::vector<NodeMoment>
 // link is made; none: the cluster is hidden from the group; some: a group is opened.
 constexpr uint32_t kClusterRays = 4;
 // Under a sky the hierarchical transport links at this share of --accuracy: its rows' errors are
-// its sky's (skyFromRows), which weigh by the sky's radiance, brighter than the surfaces'. On the
-// 2CylinderEngine part (--sky 1, --refine off) against exact: 0.097% RMS and 1.12% largest at the
-// full accuracy, 0.054% and 0.60% at half, 0.039% and 0.57% at a quarter. (The separate sky pass
-// before it linked at a quarter: there a cover link's error had the same sign at every vertex.)
+// its sky's (skyFromRows), which weigh by the sky's radiance, brighter than the surfaces'. Against
+// exact (--sky 1, --refine off; WalkSetup::rowsCoverSky): the 2CylinderEngine part 0.072% RMS and
+// 1.02% largest at the full accuracy, 0.035% and 0.47% at half; a 13.8k-triangle part 0.135% and
+// 1.13%, 0.112% and 1.09%, for 3% and 11% more time. (The separate sky pass before it linked at a
+// quarter: there a cover link's error had the same sign at every vertex.)
 constexpr double kSkyAccuracy = 0.5;
 // The sky pass asks each vertex this many² fixed rays whether it sees the back of a patch (backSeeing).
 constexpr int kBackGrid = 16;
@@ -1235,6 +1236,8 @@ struct MemoryBudget {
   }
 };
 
+bool hasSky(const RadiosityOptions& options) { return options.sky.x > 0 || options.sky.y > 0 || options.sky.z > 0; }
+
 // The walk of (receiver group, source cluster) pairs (docs/radiosity.md "Hierarchical transport"):
 // for every receiver subtree of at most kTaskVertices vertices (in parallel), from (the subtree,
 // the source root), or from the setup's `starts`. A pair becomes a link when the cluster is on the
@@ -1286,6 +1289,12 @@ struct WalkSetup {
   // Cover mode: only what patches seen from behind cover (the bilinear method's sky pass, whose
   // fronts are the transport's rows).
   bool backsOnly = false;
+  // The transport under a sky, whose rows are its sky's cover (skyFromRows): what they miss comes
+  // back as sky, δ(S − L) of light instead of δ·L, so neither a faint pair's blocked probes nor a
+  // turning cluster's negative cosines are taken for its cover. On a 13.8k-triangle part of the
+  // 2CylinderEngine (`--sky 1`) they left its vertices 0.32% brighter than exact on average, 4.1%
+  // at worst; without them 0.048% and 1.09%.
+  bool rowsCoverSky = false;
 };
 
 // A link's factor and the error estimate of its centroid expansions (walkPairs), with the source's
@@ -1526,7 +1535,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           // curved object) is linked like one facing them, when the backs' negative cosines, at most
           // F · depth / d of light as under a flat group's horizon, stay below the same share of
           // --accuracy (dipError); their centres are not asked for visibility (`sends`).
-          const bool turning = !w.cover && facing.high > facing.rounding && dipError(-facing.low) < w.accuracy * kHorizonShare;
+          const bool turning = !w.cover && !w.rowsCoverSky && facing.high > facing.rounding && dipError(-facing.low) < w.accuracy * kHorizonShare;
           const bool toward = alpha + beta + gamma < kPi / 2 || facing.low >= -facing.rounding || turning;
           if (away && !w.cover) continue;  // every patch shows the group its back
           if (w.backsOnly ? away : toward || away) {
@@ -1599,7 +1608,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // lamp hung 2 cm below it, which sees the walls only through the slit between them)
             // gained the factors of some 200 such links, 0.035 of their hemisphere where the exact
             // row holds 0.028 (lamp room at N = 20: 12.8% too dark there after closure).
-            if (factor < kFaintFactor && seen == 0) asked = count;
+            if (!w.rowsCoverSky && factor < kFaintFactor && seen == 0) asked = count;
             if (asked < count && (seen == probes || seen == 0)) {  // a link, or hidden: every ray says
               // The other rays, in an order spread over the group (j → j · p mod their number, p a
               // prime above it), so that a shadow over part of the receivers shows in the first
@@ -2111,6 +2120,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   h.nearRays += traced.rays;
   h.deferredHidden.resize(h.groups.tasks.size());
   WalkSetup setup{mesh, occlusion, recv, h.groups, h.source, all, false, options.accuracy, memory};
+  setup.rowsCoverSky = hasSky(options) && !h.perPatch;
   setup.deferredHidden = &h.deferredHidden;
   if (!h.traced.empty()) setup.traced = &h.traced, setup.bright = &h.bright;
   walkInto(h, setup, nearPair, ticker);
@@ -2206,6 +2216,7 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
   MemoryBudget memory;
   if (options.transportMemoryBytes != SIZE_MAX) memory.limit = options.transportMemoryBytes - std::min(options.transportMemoryBytes, h.bytes());
   WalkSetup setup{mesh, occlusion, recv, h.groups, S, all, false, options.accuracy, memory};
+  setup.rowsCoverSky = hasSky(options) && !h.perPatch;
   setup.weight = &weight;
   setup.lightSum = &lightSum;
   setup.starts = &starts;
@@ -2564,7 +2575,6 @@ std::vector<Vec3> withDirectLight(std::vector<Vec3> source, const std::vector<Ve
   return source;
 }
 
-bool hasSky(const RadiosityOptions& options) { return options.sky.x > 0 || options.sky.y > 0 || options.sky.z > 0; }
 // The share of the progress that the sky pass takes, before the transport's: the exact transport's
 // (every pair once more), the hierarchical one's (the backs' walk, hierarchicalBackCover).
 constexpr double kSkyProgress = 0.3;
