@@ -2423,7 +2423,7 @@ Gather hierarchicalGather(const Hierarchical& H, const PatchMesh& mesh) {
 }
 
 // The hierarchical transport's sky fractions: what each unknown's row leaves of its hemisphere,
-// 1 − (K 1)_i, less what one-sided patches seen from behind cover (hierarchicalBackCover). The sky
+// 1 − (K 1)_i, less what one-sided patches seen from behind cover (hierarchicalCover). The sky
 // and K then agree on what covers a receiver to rounding, whatever the links err: a white scene
 // under a sky of 1 is 1, and a row's error moves its sky the other way, so the two mostly cancel.
 // Until the seventeenth session the sky was a walk of its own over every patch, two thirds of the
@@ -2576,7 +2576,8 @@ std::vector<Vec3> withDirectLight(std::vector<Vec3> source, const std::vector<Ve
 }
 
 // The share of the progress that the sky pass takes, before the transport's: the exact transport's
-// (every pair once more), the hierarchical one's (the backs' walk, hierarchicalBackCover).
+// (every pair once more) and the constant method's (a cover walk over every patch), the bilinear
+// method's hierarchical one (the walk of the backs, hierarchicalCover).
 constexpr double kSkyProgress = 0.3;
 constexpr double kBackCoverProgress = 0.1;
 // The hierarchical transport's progress: its walk ends at the first, the first solve at the second,
@@ -3069,7 +3070,8 @@ Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh&
 
 Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const RadiosityOptions& asked) {
   // Under a sky the hierarchical transport's rows are also its sky's cover (skyFromRows), whose
-  // errors weigh by the sky's radiance: its links are made at kSkyAccuracy of --accuracy.
+  // errors weigh by the sky's radiance: its links are made at kSkyAccuracy of --accuracy (the
+  // constant method's and its cover walk's too, which that walk's quarter once was).
   RadiosityOptions options = asked;
   if (hasSky(options) && options.transport == TransportMode::kHierarchical) options.accuracy *= kSkyAccuracy;
   Solution solution;
