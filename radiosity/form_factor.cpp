@@ -547,8 +547,10 @@ int gaussOrderForRatio(double ratio, double relativeTolerance) {
   return std::clamp(static_cast<int>(std::ceil(m)), 2, kMaxGaussOrder);
 }
 
-std::array<double, 4> vertexQuadKernel(const Vec3& p, const Vec3& n, const Vec3& approach,
-                                       const std::array<Vec3, 4>& quad, const KernelOptions& options) {
+namespace {
+
+std::array<double, 4> quadKernel(const Vec3& p, const Vec3& n, const Vec3& approach, const std::array<Vec3, 4>& quad,
+                                 const KernelOptions& options) {
   std::array<double, 4> k{};
   Polygon poly;
   if (!makePolygon(quad.data(), 4, poly)) return k;
@@ -589,6 +591,32 @@ std::array<double, 4> vertexQuadKernel(const Vec3& p, const Vec3& n, const Vec3&
   integ.nStar = shapeFunctions(np.s, np.t);
   integ.cell(-1, 1, -1, 1, 0);
   for (int j = 0; j < 4; ++j) k[j] = integ.nStar[j] * f + integ.acc[j];
+  return k;
+}
+
+}  // namespace
+
+// A triangle comes as a quad whose last corner repeats the third. Its bilinear map's weights are the
+// triangle's barycentric coordinates whichever corner is the repeated one, so each vertex's
+// K is the same; but the cells' shapes are not. Repeated at a blunt corner of a sliver (a contact
+// cut's, 100 long and 1e-5 wide), the map shears every cell along the whole length, and the cells
+// graded toward a receiver near the long edge never get far enough from it: 1 s at 1e-3 away, 9 s
+// at 1e-4, minutes closer (the whole 2CylinderEngine's walk stalled on such pairs for over half an
+// hour). Repeated at the sharpest corner, the cells are thin wedges that halve along the length
+// like a sliver quad's (0.5 ms). So the corner opposite the shortest edge is the repeated one.
+std::array<double, 4> vertexQuadKernel(const Vec3& p, const Vec3& n, const Vec3& approach,
+                                       const std::array<Vec3, 4>& quad, const KernelOptions& options) {
+  if (!(quad[3] == quad[2])) return quadKernel(p, n, approach, quad, options);
+  const double opposite[3] = {length(quad[1] - quad[2]), length(quad[2] - quad[0]), length(quad[0] - quad[1])};
+  const int sharp = opposite[0] < opposite[1] ? (opposite[0] < opposite[2] ? 0 : 2) : (opposite[1] < opposite[2] ? 1 : 2);
+  if (sharp == 2) return quadKernel(p, n, approach, quad, options);
+  // The same winding, the sharp corner repeated last.
+  const int a = (sharp + 1) % 3, b = (sharp + 2) % 3;
+  const auto r = quadKernel(p, n, approach, {quad[a], quad[b], quad[sharp], quad[sharp]}, options);
+  std::array<double, 4> k{};
+  k[a] = r[0];
+  k[b] = r[1];
+  k[sharp] = r[2] + r[3];
   return k;
 }
 

@@ -388,6 +388,29 @@ TEST(VertexQuadKernel, SliverSourceMatchesMomentReference) {
   report("K_j on a 50:1 sliver vs the moment reference", worst);
 }
 
+// A triangle (a quad repeating its third corner) gives each vertex its barycentric share whichever
+// corner is the repeated one: the kernel repeats the sharpest itself (a sliver's blunt corner
+// repeated sheared the cells along its whole length, seconds to minutes per pair), and maps the
+// weights back. Each vertex's K agrees across the three ways to write it, and the three sum to
+// the analytic point-polygon factor.
+TEST(VertexQuadKernel, ASliverTriangleGivesEachVertexTheSameWhicheverCornerRepeats) {
+  const Vec3 a{0, 0, 0}, b{1, 0, 0}, c{1, 1e-4, 0};  // sharp at a, blunt at b and c
+  const Vec3 p{0.5, -1e-3, 1e-3}, n = normalize(Vec3{0, 1, -1});
+  const Vec3 tri[3] = {a, b, c};
+  const double f = pointPolygonFactor(p, n, tri, 3);
+  ASSERT_GT(f, 0);
+  std::array<double, 3> first{};
+  for (int r = 0; r < 3; ++r) {  // rotated r places (the same winding): corner (r + 2) % 3 repeated
+    const int i = r, j = (r + 1) % 3, l = (r + 2) % 3;
+    const auto k = vertexQuadKernel(p, n, someTangent(n), {tri[i], tri[j], tri[l], tri[l]});
+    std::array<double, 3> byVertex{};
+    byVertex[i] += k[0], byVertex[j] += k[1], byVertex[l] += k[2] + k[3];
+    EXPECT_NEAR(byVertex[0] + byVertex[1] + byVertex[2], f, 1e-6 * f) << "rotation " << r;
+    if (r == 0) first = byVertex;
+    for (int v = 0; v < 3; ++v) EXPECT_NEAR(byVertex[v], first[v], 1e-9 * f) << "rotation " << r << ", vertex " << v;
+  }
+}
+
 // Accuracy of the individual K_j at the default tolerance against the same
 // kernel run at 1e-13, over every reference case (far, near, clipped).
 TEST(VertexQuadKernel, DefaultToleranceMeetsClaim) {
