@@ -20,6 +20,17 @@ constexpr double kGrazingApproach = 1e-6;
 // Consecutive vertices closer than this (relative to size) are one vertex.
 constexpr double kDuplicateTolerance = 1e-12;
 
+// A polygon (or quadrature cell) smaller than this share of its coordinates' magnitude is rounding,
+// not geometry: its corners are a few thousand ulps apart, so its normal, its area and the distances
+// to it are noise. Contact cuts left such a triangle in the 2CylinderEngine (1.2e-12 across at
+// x = -159, a receiver vertex one ulp from its corner): its cells' distance ratios never settled and
+// the quadrature split every cell to depth 48, stalling the whole engine's walk for hours.
+constexpr double kRoundingSize = 1e-12;
+
+double magnitude(const Bounds& b) {
+  return std::max({std::abs(b.lo.x), std::abs(b.lo.y), std::abs(b.lo.z), std::abs(b.hi.x), std::abs(b.hi.y), std::abs(b.hi.z)});
+}
+
 // A quadrature cell is integrated directly once its distance to the receiver
 // is at least kCellRatio times its size; otherwise it is split in four. With
 // the order rule below a ratio of 1 needs 6 points per direction at 1e-6;
@@ -51,7 +62,7 @@ bool makePolygon(const Vec3* pts, int count, Polygon& out) {
   Bounds bounds;
   for (int i = 0; i < count; ++i) bounds.add(pts[i]);
   out.size = bounds.diagonal();
-  if (!(out.size > 0)) return false;
+  if (!(out.size > kRoundingSize * magnitude(bounds))) return false;
   const double dup = kDuplicateTolerance * out.size;
   for (int i = 0; i < count; ++i) {
     if (out.v.empty() || length(pts[i] - out.v.back()) > dup) out.v.push_back(pts[i]);
@@ -443,7 +454,8 @@ struct KernelIntegrator {
                                 std::max(length(map.at(s1, t1) - c), length(map.at(s0, t1) - c)));
     if (!(rad > 0)) return;
     const double ratio = (length(p - c) - rad) / (2 * rad);
-    if (ratio >= kCellRatio || depth >= kMaxDepth) {
+    // (A cell at the rounding of its coordinates is not split further: its ratio is noise.)
+    if (ratio >= kCellRatio || depth >= kMaxDepth || rad < kRoundingSize * std::max(length(c), length(p))) {
       leaf(s0, s1, t0, t1, gaussOrderForRatio(ratio, tolerance));
       return;
     }

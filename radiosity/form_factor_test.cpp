@@ -411,6 +411,28 @@ TEST(VertexQuadKernel, ASliverTriangleGivesEachVertexTheSameWhicheverCornerRepea
   }
 }
 
+// A triangle 1.2e-12 across at x = -159 (a few thousand ulps), with a receiver one ulp from its
+// corner, as contact cuts left in the 2CylinderEngine: its normal, area and distances are rounding
+// noise. It sends nothing, and at once (the quadrature split its cells to depth 48: hours).
+TEST(VertexQuadKernel, APatchAtTheRoundingOfItsCoordinatesSendsNothing) {
+  const Vec3 a{-159.00007630449539, -74.227835884567043, -55.374141564584932};
+  const Vec3 b{-159.00007630449542, -74.227835884567142, -55.374141564584633};
+  const Vec3 c{-159.00007630449542, -74.227835884567455, -55.374141564583852};
+  const Vec3 p{-159.00007630449539, -74.227835884567028, -55.374141564584924};
+  const Vec3 n{-1, 6.3495611907622292e-11, 6.3492697321249141e-11};
+  KernelOptions options;
+  options.relativeTolerance = 5e-5;
+  const auto k = vertexQuadKernel(p, n, someTangent(n), {a, b, c, c}, options);
+  for (int j = 0; j < 4; ++j) EXPECT_EQ(k[j], 0) << "K_" << j;
+  const Vec3 tri[3] = {a, b, c};
+  EXPECT_EQ(pointPolygonFactor(p, n, tri, 3), 0);
+  // Scaled up 1e4 times about its first corner (1.2e-8 across) it is geometry again: a receiver
+  // 1e-9 in front of its centre sees some of it (5%, from whichever side its front is).
+  const Vec3 big[3] = {a, a + (b - a) * 1e4, a + (c - a) * 1e4};
+  const Vec3 centre = (big[0] + big[1] + big[2]) / 3, x{1e-9, 0, 0};
+  EXPECT_GT(std::max(pointPolygonFactor(centre + x, Vec3{-1, 0, 0}, big, 3), pointPolygonFactor(centre - x, Vec3{1, 0, 0}, big, 3)), 0.01);
+}
+
 // Accuracy of the individual K_j at the default tolerance against the same
 // kernel run at 1e-13, over every reference case (far, near, clipped).
 TEST(VertexQuadKernel, DefaultToleranceMeetsClaim) {
