@@ -21,10 +21,10 @@ constexpr double kGrazingApproach = 1e-6;
 constexpr double kDuplicateTolerance = 1e-12;
 
 // A polygon (or quadrature cell) smaller than this share of its coordinates' magnitude is rounding,
-// not geometry: its corners are a few thousand ulps apart, so its normal, its area and the distances
-// to it are noise. Contact cuts left such a triangle in the 2CylinderEngine (1.2e-12 across at
-// x = -159, a receiver vertex one ulp from its corner): its cells' distance ratios never settled and
-// the quadrature split every cell to depth 48, stalling the whole engine's walk for hours.
+// not geometry: its corners are at most a few thousand ulps apart, so its normal, its area and the
+// distances to it are noise. Contact cuts left such a triangle in the 2CylinderEngine (1.2e-12
+// across at x = -159, a receiver vertex one ulp from its corner): its cells' distance ratios never
+// settled and the quadrature split every cell to depth 48, stalling the whole engine's walk for hours.
 constexpr double kRoundingSize = 1e-12;
 
 double magnitude(const Bounds& b) {

@@ -411,7 +411,7 @@ TEST(VertexQuadKernel, ASliverTriangleGivesEachVertexTheSameWhicheverCornerRepea
   }
 }
 
-// A triangle 1.2e-12 across at x = -159 (a few thousand ulps), with a receiver one ulp from its
+// A triangle 1.2e-12 across at x = -159 (tens of ulps), with a receiver one ulp from its
 // corner, as contact cuts left in the 2CylinderEngine: its normal, area and distances are rounding
 // noise. It sends nothing, and at once (the quadrature split its cells to depth 48: hours).
 TEST(VertexQuadKernel, APatchAtTheRoundingOfItsCoordinatesSendsNothing) {
