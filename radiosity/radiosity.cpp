@@ -1505,7 +1505,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // over the distance: the cluster covers at most A (originReach + ε) / (π d³), d the gap
         // between the two. Below the horizon rule's share of --accuracy it is dropped whole; it was
         // opened down to single patches wherever fronts and backs mix (the whole 2CylinderEngine's
-        // walk of backs took some 8 minutes).
+        // walk of backs took about 630 s, 441 s with this).
         if (w.backsOnly && w.seesBacks && backsIn[gi] == 0) {
           const double gap = estimate.dist - g.radius - c.radius;
           if (gap > 0 && c.area * (w.originReach + w.occlusion.epsilon()) / (kPi * gap * gap * gap) < w.accuracy * kHorizonShare)
@@ -2098,6 +2098,10 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
 // The hierarchical transport: the walk in transport mode over every patch, the exact (receiver,
 // patch) pairs by `nearPair` (nearPairs), links stored per receiver group; then closure. The
 // receiver groups move into the result.
+// Whether the transport's rows are also its sky's cover (the bilinear method under a sky:
+// skyFromRows), which both of its walks must know (WalkSetup::rowsCoverSky).
+bool rowsCoverSky(const Hierarchical& h, const RadiosityOptions& options) { return hasSky(options) && !h.perPatch; }
+
 Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
                                    const Receivers& recv, Closure& closure, ReceiverGroups&& groups, const NearPair& nearPair,
                                    TracedBackSides&& traced, std::vector<bool>&& bright, Ticker& ticker) {
@@ -2132,7 +2136,7 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   h.nearRays += traced.rays;
   h.deferredHidden.resize(h.groups.tasks.size());
   WalkSetup setup{mesh, occlusion, recv, h.groups, h.source, all, false, options.accuracy, memory};
-  setup.rowsCoverSky = hasSky(options) && !h.perPatch;
+  setup.rowsCoverSky = rowsCoverSky(h, options);
   setup.deferredHidden = &h.deferredHidden;
   if (!h.traced.empty()) setup.traced = &h.traced, setup.bright = &h.bright;
   walkInto(h, setup, nearPair, ticker);
@@ -2228,7 +2232,7 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
   MemoryBudget memory;
   if (options.transportMemoryBytes != SIZE_MAX) memory.limit = options.transportMemoryBytes - std::min(options.transportMemoryBytes, h.bytes());
   WalkSetup setup{mesh, occlusion, recv, h.groups, S, all, false, options.accuracy, memory};
-  setup.rowsCoverSky = hasSky(options) && !h.perPatch;
+  setup.rowsCoverSky = rowsCoverSky(h, options);
   setup.weight = &weight;
   setup.lightSum = &lightSum;
   setup.starts = &starts;
