@@ -1,7 +1,6 @@
 #include "radiosity/radiosity.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -12,7 +11,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <numeric>
 #include <unordered_map>
 #include <span>
 #include <string>
@@ -285,15 +283,6 @@ struct Receivers {
   // Whether every patch meeting at the point (this side's, own or not, welded or not) lies in one
   // plane: no crease, saddle or curvature there, so its near kernels are exact but for visibility.
   std::vector<uint8_t> flat;
-  // Per receiver, the first receiver at the same point on the same side (itself where there is
-  // none), and whether another is there: the corners of a flat-shaded mesh's faces around one
-  // position, four or more receivers each. Toward anything above their horizons the point's
-  // visibility is the same whatever the normal, so the walk's rays from one serve them all
-  // (walkPairs, pairVisibility). A receiver moved off its vertex (snapToTouching,
-  // relocateCovered) or at a saddle (the planes meeting there have no common free side, and the
-  // origins no common meaning) is its own.
-  std::vector<uint32_t> samePoint;
-  std::vector<uint8_t> sharesPoint;  // whether another receiver is at the same point
   size_t moved = 0;  // receivers moved off a covered vertex (relocateCovered)
   std::span<const uint32_t> ignored(size_t v) const { return {ignore.data() + start[v], start[v + 1] - start[v]}; }
   std::span<const uint32_t> own(size_t v) const { return {ignore.data() + start[v], ownCount[v]}; }
@@ -383,7 +372,6 @@ Receivers receivers(const PatchMesh& mesh, double offset) {
   r.normal.resize(n);
   r.approach.resize(n);
   r.origin.resize(n);
-  r.sharesPoint.resize(n);
   r.start.assign(1, 0);
   r.ownCount.resize(n);
   r.flat.resize(n);
@@ -407,9 +395,7 @@ Receivers receivers(const PatchMesh& mesh, double offset) {
       if (std::none_of(ownPlanes.begin(), ownPlanes.end(), [&](const Vec3& o) { return dot(o, m) < -1 + 1e-9; }))
         meeting.push_back(m);
     Vec3 m = r.normal[v];
-    const bool common = freeDirection(meeting, m);
-    if (!common && !freeDirection(ownPlanes, m)) m = r.normal[v];
-    r.sharesPoint[v] = common;  // (so far: may share; findSamePoints decides)
+    if (!freeDirection(meeting, m) && !freeDirection(ownPlanes, m)) m = r.normal[v];
     // Into the face as well, unless that would put the origin behind one of its own facets (a
     // convex smooth vertex, whose facets fall away from the approach): the own facets are tested
     // exactly (Sight), from their front.
@@ -660,33 +646,7 @@ Receivers patchReceivers(const PatchMesh& mesh, double offset) {
     if (patch.twin >= 0) r.ignore.push_back(uint32_t(patch.twin));
     r.start.push_back(r.ignore.size());
   }
-  r.samePoint.resize(n);
-  std::iota(r.samePoint.begin(), r.samePoint.end(), 0u);  // each patch its own point
-  r.sharesPoint.assign(n, 0);
   return r;
-}
-
-// Receivers::samePoint of the bilinear method's receivers, once they have their final points
-// (relocateCovered). The side is their own patches': a double-sided surface's two sides see
-// opposite half-spaces.
-void findSamePoints(const PatchMesh& mesh, Receivers& r) {
-  const size_t n = r.point.size();
-  r.samePoint.resize(n);
-  std::vector<uint32_t> order;  // those that may share: unmoved, with patches, not at a saddle
-  for (uint32_t v = 0; v < n; ++v) {
-    r.samePoint[v] = v;
-    if (r.sharesPoint[v] && r.point[v] == mesh.positions[v] && r.ownCount[v] > 0) order.push_back(v);
-    r.sharesPoint[v] = 0;
-  }
-  auto key = [&](uint32_t v) { return std::tuple(r.point[v].x, r.point[v].y, r.point[v].z, mesh.patches[r.own(v)[0]].backSide); };
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return std::pair(key(a), a) < std::pair(key(b), b); });
-  for (size_t k = 0; k < order.size();) {
-    size_t end = k + 1;
-    while (end < order.size() && key(order[end]) == key(order[k])) r.samePoint[order[end++]] = order[k];  // the lowest index
-    if (end > k + 1)
-      for (size_t e = k; e < end; ++e) r.sharesPoint[order[e]] = 1;
-    k = end;
-  }
 }
 
 // The receiver tree's items, one per unknown: a vertex (a point with its receiving normal) or a
@@ -956,22 +916,12 @@ std::array<double, 4> visibleFraction(const Sight& sight, const Vec3& n, const s
   return out;
 }
 
-// The whole-patch verdicts of one walk task's (vertex, patch) pairs, per point (Receivers::samePoint)
-// and patch: bit 0 seen, bit 1 by the five probes (else by a faint pair's one ray). The receivers
-// at one point (a flat-shaded mesh's corners) take a verdict one of them found for a patch wholly
-// above both their horizons, where the point's visibility is the same whatever the normal; a
-// verdict by the probes serves a faint pair too. Per task, so that which receiver finds it is
-// fixed by the walk's order, not by the threads.
-using PointVerdicts = std::unordered_map<uint64_t, uint8_t>;
-
 // How finely a pair's visibility is resolved (pairVisibility): a patch whose factor is below `faint`
 // gets one ray, one above `piece` is split (visibleFraction). Both are divided by the patch's
 // emission weight (emissionWeight; the sky cover, which is geometry, takes none).
 struct PairSight {
   double faint = 0;
   double piece = kVisibilityPiece;
-  PointVerdicts* shared = nullptr;  // set where the pair may take or leave a verdict
-  uint64_t key = 0;                 // its (point, patch)
 };
 
 // The area-weighted mean emitted radiance of the scene (luminance), and a patch's brightness
@@ -1015,34 +965,14 @@ std::array<double, 4> pairVisibility(const Sight& sight, const Vec3& n, const st
       hm = std::max(hm, std::abs(dot(qNormal, sight.from - x)));
     }
     if (area * std::min(1.0, hn / d) * std::min(1.0, hm / d) < resolve.faint * kPi * d * d) {
-      if (resolve.shared) {
-        const auto found = resolve.shared->find(resolve.key);
-        if (found != resolve.shared->end()) {
-          const double seen = found->second & 1;
-          return {seen, seen, seen, seen};
-        }
-      }
       ++rays;
-      const bool seen = sight.visible(c + qNormal * (sight.occlusion.epsilon() * 10));
-      if (resolve.shared) resolve.shared->emplace(resolve.key, uint8_t(seen));
-      return {double(seen), double(seen), double(seen), double(seen)};
+      const double seen = sight.visible(c + qNormal * (sight.occlusion.epsilon() * 10)) ? 1 : 0;
+      return {seen, seen, seen, seen};
     }
   }
   // Below the piece size for certain (the factor is at most A/(π d²)): judged whole, without
   // visibleFraction's closed-form factor (most pairs of a finely tessellated scene).
-  if (d > 0 && area <= resolve.piece * kPi * d * d) {
-    if (resolve.shared) {
-      const auto found = resolve.shared->find(resolve.key);
-      if (found != resolve.shared->end() && (found->second & 2)) {
-        const double seen = found->second & 1;
-        return {seen, seen, seen, seen};
-      }
-    }
-    const auto f = patchFraction(sight, n, q, qNormal, rays);
-    const bool whole = (f[0] == 0 || f[0] == 1) && f[1] == f[0] && f[2] == f[0] && f[3] == f[0];
-    if (resolve.shared && whole) resolve.shared->insert_or_assign(resolve.key, uint8_t(2 | (f[0] == 1)));
-    return f;
-  }
+  if (d > 0 && area <= resolve.piece * kPi * d * d) return patchFraction(sight, n, q, qNormal, rays);
   return visibleFraction(sight, n, q, qNormal, resolve.piece, rays);
 }
 
@@ -1061,7 +991,7 @@ bool kernelReaches(const Vec3& p, const Vec3& nrm, const std::array<Vec3, 4>& q,
 // than `resolve.faint` gets one visibility ray (pairVisibility; 0: the exact transport's probes always).
 // Returns the rays it traced.
 size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, const KernelOptions& kernelOptions,
-                      size_t i, size_t source, std::vector<uint32_t>& ignore, Row& row, PairSight resolve) {
+                      size_t i, size_t source, std::vector<uint32_t>& ignore, Row& row, const PairSight& resolve) {
   const Vec3 p = recv.point[i], nrm = recv.normal[i], a = recv.approach[i];
   const Patch& patch = mesh.patches[source];
   if (recv.isOwnTwin(i, uint32_t(source))) return 0;  // a side never sees its own twin
@@ -1074,11 +1004,6 @@ size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const R
   ignore.back() = uint32_t(source);
   const Sight sight{occlusion, mesh, recv.origin[i], ignore, recv.own(i)};
   size_t rays = 0;
-  if (resolve.shared) {  // only a patch wholly above the receiver's horizon shares its verdict
-    for (const Vec3& x : q)
-      if (!(dot(nrm, x - p) > occlusion.epsilon())) resolve.shared = nullptr;
-    resolve.key = uint64_t(recv.samePoint[i]) << 32 | source;
-  }
   const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : pairVisibility(sight, nrm, q, patch.normal, patch.area, resolve, rays);
   if (vis[0] == 0 && vis[1] == 0 && vis[2] == 0 && vis[3] == 0) return rays;
   const auto k = vertexQuadKernel(p, nrm, a, q, kernelOptions);
@@ -1467,22 +1392,11 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     brightIn = countIn(S, [&](uint32_t item) { return w.bright && (*w.bright)[w.patchOf[item]]; });
   }
   if (w.seesBacks) backsIn = countIn(R, [&](uint32_t v) { return (*w.seesBacks)[v]; });
-  // Receivers at one point on one side (Receivers::samePoint) trace one receiver's rays for all in
-  // a group: its first's. A link's rays go to patches above every receiver's horizon, where the
-  // point's visibility is the same whatever the normal. A flat-shaded mesh has four or more
-  // receivers at each position: issue 16's room (Blender's default flat shading) took 88-92 s,
-  // the same room smooth-shaded 52 s. Tracing for all: 346M -> 296M cluster rays, 4% less time,
-  // the same errors against exact on the level-0 room, the Cornell box and the engine part.
-  std::vector<uint32_t> treePos(w.recv.point.size(), std::numeric_limits<uint32_t>::max());
-  for (uint32_t k = 0; k < R.order.size(); ++k) treePos[R.order[k]] = k;
-  auto inGroup = [&](const TreeNode& g, uint32_t v) { return treePos[v] - g.first < g.count; };  // unsigned: below first wraps
-  auto tracesFor = [&](const TreeNode& g, uint32_t v) { return w.recv.samePoint[v] != v && inGroup(g, w.recv.samePoint[v]); };
   tbb::parallel_for(tbb::blocked_range<size_t>(0, w.groups.tasks.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint32_t> ignore;
     std::vector<Occlusion::Segment> segments;
     std::vector<uint32_t> segmentVertex;
     std::array<bool, kRayBatch> seenBuffer;
-    std::vector<uint32_t> tracing;  // the receivers of the pair being tested that trace rays
     size_t shot = 0;
     // Traces `segments` (each from receiver segmentVertex[e]) as one batch and counts those that get
     // through: Embree's answer and, in double precision, the receiver's own patches.
@@ -1510,15 +1424,10 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           const uint32_t k = uint32_t((uint64_t(j) * 2654435761u) % n);  // a permutation of [0, n)
           const uint32_t v = R.order[g.first + k / c.count], item = S.order[c.first + k % c.count];
           const Vec3& m = w.mesh.patches[w.patchOf[item]].normal;
-          // The ray that receiver u would trace to the patch, if any.
-          auto ray = [&](uint32_t u, Vec3& to) {
-            const double side = dot(m, w.recv.origin[u] - centre[item]);
-            if (side > 0 ? w.backsOnly : !w.cover) return false;  // a front of the transport's, a back of the cover's
-            to = centre[item] + m * (side > 0 ? lift : -lift);
-            return dot(w.recv.normal[u], to - w.recv.point[u]) > 0;  // above u's horizon
-          };
-          Vec3 to, theirs;  // a receiver whose point's first traces the same ray leaves it to that one
-          if (!ray(v, to) || (tracesFor(g, v) && ray(w.recv.samePoint[v], theirs))) continue;
+          const double side = dot(m, w.recv.origin[v] - centre[item]);
+          if (side > 0 ? w.backsOnly : !w.cover) continue;  // a front of the transport's, a back of the cover's
+          const Vec3 to = centre[item] + m * (side > 0 ? lift : -lift);
+          if (dot(w.recv.normal[v], to - w.recv.point[v]) <= 0) continue;  // below v's horizon
           segments.push_back({w.recv.origin[v], to, w.recv.ignored(v)});
           segmentVertex.push_back(v);
         }
@@ -1652,12 +1561,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // And a link asks at least kClusterRays rays in all: a link of one vertex decided by one
             // ray let light through partly hidden clusters (Suzanne vertices of the Blender room up
             // to 5% too bright once groups opened to their vertices at horizons, below).
-            tracing.clear();
-            for (uint32_t k = g.first; k < g.first + g.count; ++k)
-              if (!tracesFor(g, R.order[k])) tracing.push_back(R.order[k]);
-            const uint32_t receivers = uint32_t(tracing.size());
-            const uint32_t perReceiver = raysPerReceiver(receivers, factor);
-            const uint32_t count = receivers * perReceiver;
+            const uint32_t perReceiver = raysPerReceiver(g.count, factor);
+            const uint32_t count = g.count * perReceiver;
             // Rays k / per receiver to a hashed patch, for k = index(j), j < n, traced in batches;
             // with `stopWhenMixed` it stops at the first batch that shows some rays through and
             // some blocked, counting `prior` rays already traced (the pair is then opened whatever
@@ -1670,7 +1575,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 const uint32_t last = std::min(n, first + kRayBatch);
                 for (uint32_t j = first; j < last; ++j) {
                   const uint32_t k = index(j);
-                  const uint32_t v = tracing[k / per];
+                  const uint32_t v = R.order[g.first + k / per];
                   uint32_t start = uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count);
                   if (w.lightSum && k % 2 == 0) start = drawnByLight(*w.lightSum, c, start);
                   uint32_t item = S.order[c.first + start];
@@ -1738,7 +1643,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
               if (w.deferredHidden) {
                 (*w.deferredHidden)[task].push_back({gi, ci});
                 kept += sizeof(std::pair<uint32_t, uint32_t>);
-              } else if (trace(receivers * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) {
+              } else if (trace(g.count * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) {
                 seen = 1;
               }
             }
@@ -1858,7 +1763,7 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
 // `patch` to `row` (the bilinear method's K_ij per corner vertex j, the constant method's F_vl) and
 // returns the rays it traced; CoverPair returns the share of v's hemisphere `patch` covers and
 // counts its rays. `ignore` is v's ignore list with a free last slot.
-using NearPair = std::function<size_t(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row, PointVerdicts* shared)>;
+using NearPair = std::function<size_t(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row)>;
 using CoverPair = std::function<double(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays)>;
 
 // Whether any of kBackGrid² fixed cosine-distributed rays from vertex v first meets a one-sided
@@ -1969,16 +1874,14 @@ void walkInto(Hierarchical& h, const WalkSetup& setup, const NearPair& nearPair,
   std::vector<double> nodeError;
   std::atomic<size_t> pairRays{0};
   const ClusterTree& R = h.groups.tree;
-  tbb::enumerable_thread_specific<PointVerdicts> verdicts;  // the running task's (a task runs on one thread)
   auto links = walkPairs(
       setup, [&](uint32_t v) { return h.groups.leafOf[v] != kNoLeaf; }, nodeError,
       [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
         const size_t before = near[v].size();
-        pairRays.fetch_add(nearPair(v, patch, ignore, near[v], &verdicts.local()), std::memory_order_relaxed);
+        pairRays.fetch_add(nearPair(v, patch, ignore, near[v]), std::memory_order_relaxed);
         return (near[v].size() - before) * kNearEntryBytes;
       },
       [&](const TreeNode& task) {  // its vertices' rows are complete
-        PointVerdicts().swap(verdicts.local());
         for (uint32_t k = task.first; k < task.first + task.count; ++k) {
           const uint32_t v = R.order[k];
           if (near[v].empty()) continue;
@@ -2139,7 +2042,7 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       for (uint32_t p : near) {
         ignore.assign(ignored.begin(), ignored.end());
         ignore.push_back(0);
-        nearRays += nearPair(v, p, ignore, row, nullptr);
+        nearRays += nearPair(v, p, ignore, row);
       }
       rays.fetch_add(nearRays, std::memory_order_relaxed);
       double nearSum = 0;
@@ -2429,7 +2332,7 @@ NearPair nearPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Rece
                    double kernelTolerance, double accuracy) {
   const double tolerance = pairTolerance(method, kernelTolerance, accuracy), faint = accuracy * kFaintPairShare;
   if (method == Method::kConstant)
-    return [&mesh, &occlusion, tolerance](uint32_t k, uint32_t patch, std::vector<uint32_t>&, Row& row, PointVerdicts*) {
+    return [&mesh, &occlusion, tolerance](uint32_t k, uint32_t patch, std::vector<uint32_t>&, Row& row) {
       size_t rays = 0;
       const double f = constantPairFactor(mesh, occlusion, k, patch, tolerance, rays);
       if (f > 0) row.emplace_back(patch, f);
@@ -2437,11 +2340,10 @@ NearPair nearPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Rece
     };
   KernelOptions kernel;
   kernel.relativeTolerance = tolerance;
-  return [&mesh, &occlusion, &recv, kernel, faint, emission = meanEmission(mesh)](
-             uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row, PointVerdicts* shared) {
+  return [&mesh, &occlusion, &recv, kernel, faint, emission = meanEmission(mesh)](uint32_t v, uint32_t patch,
+                                                                                  std::vector<uint32_t>& ignore, Row& row) {
     const double weight = emissionWeight(mesh.patches[patch], emission);
-    return addPatchKernel(mesh, occlusion, recv, kernel, v, patch, ignore, row,
-                          {faint / weight, kVisibilityPiece / weight, recv.sharesPoint[v] ? shared : nullptr});
+    return addPatchKernel(mesh, occlusion, recv, kernel, v, patch, ignore, row, {faint / weight, kVisibilityPiece / weight});
   };
 }
 
@@ -2472,7 +2374,7 @@ Transport exactTransport(const PatchMesh& mesh, const Occlusion& occlusion, std:
     std::vector<uint32_t> ignore(recv->ignored(i).begin(), recv->ignored(i).end());
     ignore.push_back(0);  // the source patch, set per source
     for (size_t source = 0; source < mesh.patches.size(); ++source)
-      if (!closure->separates(i, source)) nearPair(uint32_t(i), uint32_t(source), ignore, row, nullptr);
+      if (!closure->separates(i, source)) nearPair(uint32_t(i), uint32_t(source), ignore, row);
     canonicalize(row);
   };
   return t;
@@ -3208,7 +3110,6 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     Receivers r = receivers(mesh, offset);
     snapToTouching(mesh, occlusion, r, offset);
     relocateCovered(mesh, occlusion, *closure, r, offset);
-    findSamePoints(mesh, r);
     return r;
   }());
   const bool hierarchical = options.transport == TransportMode::kHierarchical;
