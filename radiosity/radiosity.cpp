@@ -1498,17 +1498,19 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // ones were).
         const Heights facing = heightsOver(c, g);
         if (!w.cover && facing.high < -facing.rounding) continue;
-        if (w.seesBacks && backsIn[gi] == 0 && facing.high < -facing.rounding - w.originReach) continue;
-        // Backs only, and no receiver of the group saw a back: it takes a patch only where the
-        // patch's plane passes between a receiver's point and its rays' origin (a contact), so the
-        // point lies at most originReach (+ ε) behind it and sees it at a cosine of at most that
-        // over the distance: the cluster covers at most A (originReach + ε) / (π d³), d the gap
-        // between the two. Below the horizon rule's share of --accuracy it is dropped whole; it was
-        // opened down to single patches wherever fronts and backs mix (the whole 2CylinderEngine's
-        // walk of backs took about 630 s, 441 s with this).
-        if (w.backsOnly && w.seesBacks && backsIn[gi] == 0) {
+        // No receiver of the group saw a back: it takes a patch only where the patch's plane passes
+        // between a receiver's point and its rays' origin (a contact), so the point lies at most
+        // originReach (+ ε) behind it. A cluster wholly further behind is dropped; with backs only,
+        // so is one that covers the group below the horizon rule's share of --accuracy: seen at a
+        // cosine of at most that reach over the distance, it covers at most
+        // A (originReach + ε) / (π d³), d the gap between the two. It was opened down to single
+        // patches wherever fronts and backs mix (the whole 2CylinderEngine's walk of backs took
+        // about 630 s, 441 s with this).
+        if (w.seesBacks && backsIn[gi] == 0) {
+          if (facing.high < -facing.rounding - w.originReach) continue;
           const double gap = estimate.dist - g.radius - c.radius;
-          if (gap > 0 && c.area * (w.originReach + w.occlusion.epsilon()) / (kPi * gap * gap * gap) < w.accuracy * kHorizonShare)
+          if (w.backsOnly && gap > 0 &&
+              c.area * (w.originReach + w.occlusion.epsilon()) / (kPi * gap * gap * gap) < w.accuracy * kHorizonShare)
             continue;
         }
         if (w.backsOnly && facing.low >= -w.occlusion.epsilon()) continue;  // only fronts
@@ -2095,13 +2097,13 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
   return out;
 }
 
-// The hierarchical transport: the walk in transport mode over every patch, the exact (receiver,
-// patch) pairs by `nearPair` (nearPairs), links stored per receiver group; then closure. The
-// receiver groups move into the result.
 // Whether the transport's rows are also its sky's cover (the bilinear method under a sky:
 // skyFromRows), which both of its walks must know (WalkSetup::rowsCoverSky).
 bool rowsCoverSky(const Hierarchical& h, const RadiosityOptions& options) { return hasSky(options) && !h.perPatch; }
 
+// The hierarchical transport: the walk in transport mode over every patch, the exact (receiver,
+// patch) pairs by `nearPair` (nearPairs), links stored per receiver group; then closure. The
+// receiver groups move into the result.
 Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlusion, const RadiosityOptions& options,
                                    const Receivers& recv, Closure& closure, ReceiverGroups&& groups, const NearPair& nearPair,
                                    TracedBackSides&& traced, std::vector<bool>&& bright, Ticker& ticker) {
