@@ -2459,8 +2459,40 @@ std::vector<double> skyFromRows(const Gather& gather, const std::vector<double>&
   return sky;
 }
 
-// Jacobi iteration L ← L⁰ + ρ ⊙ (K L): every row independent, so parallel and bit-identical for
-// any thread count. Converges for ρ < 1 (each row of K sums to at most 1).
+// Σ_i a_i · b_i over the three channels, summed in fixed blocks and then in block order, so that
+// it has the same bits for any thread count.
+double blockDot(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  constexpr size_t kBlock = 4096;
+  std::vector<double> part((a.size() + kBlock - 1) / kBlock, 0.0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, part.size()), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      double s = 0;
+      for (size_t i = k * kBlock; i < std::min(a.size(), (k + 1) * kBlock); ++i) s += dot(a[i], b[i]);
+      part[k] = s;
+    }
+  });
+  double sum = 0;
+  for (double s : part) sum += s;
+  return sum;
+}
+
+// The Jacobi image G(L) = L⁰ + ρ ⊙ (K L) mixed with the last kMixDepth images (Anderson
+// acceleration, Walker & Ni 2011): L ← G(L) − Σ_j γ_j ΔG_j, with γ the least-squares fit of the
+// residual G(L) − L by the residuals' last changes ΔF_j. On a linear map it is GMRES in disguise:
+// Jacobi's error falls as the light's slowest mode (the spectral radius of ρK, 0.7–0.9 in rooms),
+// the mixing takes that mode out. Issue 16's Blender room: 45 gathers → 23 (the bake 104.5 → 95.6 s,
+// fastest of two alternating runs); Cornell box N = 20: 18 → 11. It keeps 2 kMixDepth + 3 more
+// vectors of the unknowns (216 MB at a million). The stop test is unchanged (each residual is
+// G(L) − L of the L it was taken at), and what is returned is a plain Jacobi image, G(L) of the
+// last L: never below L⁰, whatever the mixing did.
+constexpr int kMixDepth = 3;
+// A history whose normal equations are this ill-conditioned (relative pivot) is dropped and begun
+// again: its changes have become nearly parallel and the fit would amplify rounding.
+constexpr double kMixPivot = 1e-10;
+
+// Jacobi iteration L ← L⁰ + ρ ⊙ (K L), mixed as above: every row independent, so parallel, and the
+// mixing's sums in a fixed order, so bit-identical for any thread count. Converges for ρ < 1 (each
+// row of K sums to at most 1).
 // Starts from L where it holds one value per unknown (a warm start), else from the emission; stops at
 // a relative residual of `residualGoal` and reports progress from `from` to `to`. Stops early,
 // not converged, once the residual's fall over the last kRateWindow iterations, kept up, would not
@@ -2477,30 +2509,92 @@ void iterate(const Gather& gather, const std::vector<Vec3>& emission, const std:
   double scale = 0;
   for (const Vec3& e : emission) scale = std::max({scale, std::abs(e.x), std::abs(e.y), std::abs(e.z)});
   if (scale == 0) return;  // no emitter: black is the answer
-  std::vector<Vec3> next(n);
+  std::vector<Vec3> next(n), f(n), lastImage, lastResidual;
   std::vector<double> rowChange(n);
   std::vector<double> history;  // the residual after each iteration
+  // The last kMixDepth changes of the residual and of the image, oldest first.
+  std::vector<std::vector<Vec3>> dF, dG;
   for (int it = 1; it <= options.maxIterations; ++it) {
     gather(L, gathered);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t i = range.begin(); i != range.end(); ++i) {
         const Vec3& h = gathered[i];
         next[i] = emission[i] + Vec3{reflectance[i].x * h.x, reflectance[i].y * h.y, reflectance[i].z * h.z};
-        const Vec3 d = next[i] - L[i];
-        rowChange[i] = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        f[i] = next[i] - L[i];
+        rowChange[i] = std::max({std::abs(f[i].x), std::abs(f[i].y), std::abs(f[i].z)});
       }
     });
     const double residual = *std::max_element(rowChange.begin(), rowChange.end()) / scale;
-    L.swap(next);
     ++solution.iterations;
     solution.residual = residual;
     if (options.progress) options.progress(from + (to - from) * std::min(1.0, std::log(residual) / std::log(residualGoal)));
-    if (residual <= residualGoal) break;
+    bool stop = residual <= residualGoal || it == options.maxIterations;
     history.push_back(residual);
-    if (it > kRateWindow && residual > 0) {
+    if (!stop && it > kRateWindow && residual > 0) {
       const double rate = std::pow(residual / history[size_t(it - 1 - kRateWindow)], 1.0 / kRateWindow);
-      if (!(rate < 1) || it + std::log(residualGoal / residual) / std::log(rate) > options.maxIterations) break;
+      stop = !(rate < 1) || it + std::log(residualGoal / residual) / std::log(rate) > options.maxIterations;
     }
+    if (stop) {
+      L.swap(next);
+      break;
+    }
+    // The history's newest changes, then the fit of f by them (the normal equations, by Gaussian
+    // elimination: kMixDepth unknowns).
+    if (!lastImage.empty()) {
+      if (dF.size() == size_t(kMixDepth)) {
+        dF.erase(dF.begin());
+        dG.erase(dG.begin());
+      }
+      dF.emplace_back(n);
+      dG.emplace_back(n);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+          dF.back()[i] = f[i] - lastResidual[i];
+          dG.back()[i] = next[i] - lastImage[i];
+        }
+      });
+    }
+    lastImage = next;
+    lastResidual = f;
+    const size_t m = dF.size();
+    std::array<double, kMixDepth> gamma{};
+    bool mixed = m > 0;
+    if (mixed) {
+      std::array<std::array<double, kMixDepth + 1>, kMixDepth> a{};
+      for (size_t j = 0; j < m; ++j) {
+        for (size_t k = j; k < m; ++k) a[j][k] = a[k][j] = blockDot(dF[j], dF[k]);
+        a[j][m] = blockDot(dF[j], f);
+      }
+      double largest = 0;
+      for (size_t j = 0; j < m; ++j) largest = std::max(largest, a[j][j]);
+      for (size_t j = 0; j < m && mixed; ++j) {
+        if (!(a[j][j] > kMixPivot * largest)) {
+          mixed = false;
+          break;
+        }
+        for (size_t k = j + 1; k < m; ++k) {
+          const double r = a[k][j] / a[j][j];
+          for (size_t c = j; c <= m; ++c) a[k][c] -= r * a[j][c];
+        }
+      }
+      for (size_t j = m; mixed && j-- > 0;) {
+        double s = a[j][m];
+        for (size_t k = j + 1; k < m; ++k) s -= a[j][k] * gamma[k];
+        gamma[j] = s / a[j][j];
+      }
+    }
+    if (!mixed) {
+      dF.clear();
+      dG.clear();
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        Vec3 x = next[i];
+        if (mixed)
+          for (size_t j = 0; j < m; ++j) x -= dG[j][i] * gamma[j];
+        L[i] = x;
+      }
+    });
   }
   solution.converged = solution.residual <= residualGoal;
 }
