@@ -797,6 +797,7 @@ bool hullClear(const Occlusion& occlusion, const PatchMesh& mesh, std::span<cons
                std::span<const std::pair<Vec3, double>> planes, std::span<const uint32_t> skip) {
   const double eps = occlusion.epsilon();
   std::array<std::pair<Vec3, double>, 64> faces;  // up to 8 points: 56 triples, and `planes`
+  if (points.size() > 8 || planes.size() > faces.size() - 56) return false;  // not asked: the rays decide
   size_t count = 0;
   for (const auto& plane : planes) faces[count++] = plane;
   const size_t n = points.size();
