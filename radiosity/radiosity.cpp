@@ -2546,15 +2546,16 @@ void iterate(const Gather& gather, const std::vector<Vec3>& emission, const std:
       L.swap(next);
       break;
     }
-    // The history's newest changes, then the fit of f by them (the normal equations, by Gaussian
-    // elimination: kMixDepth unknowns).
+    // The history's newest changes (a full history drops its oldest and reuses its storage), then
+    // the fit of f by them (the normal equations, by Gaussian elimination: kMixDepth unknowns).
     if (!lastImage.empty()) {
       if (dF.size() == size_t(kMixDepth)) {
-        dF.erase(dF.begin());
-        dG.erase(dG.begin());
+        std::rotate(dF.begin(), dF.begin() + 1, dF.end());
+        std::rotate(dG.begin(), dG.begin() + 1, dG.end());
+      } else {
+        dF.emplace_back(n);
+        dG.emplace_back(n);
       }
-      dF.emplace_back(n);
-      dG.emplace_back(n);
       tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t i = range.begin(); i != range.end(); ++i) {
           dF.back()[i] = f[i] - lastResidual[i];
@@ -2963,14 +2964,16 @@ std::vector<PatchLight> measureLight(const Scene& scene, const PatchMesh& mesh, 
             // asked first, once for its nine samples: the hull of its corners (lifted as the samples
             // are) and the emitter's. In issue 16's Blender room the ceiling cells around the lamp
             // asked 66k shafts, each visiting some 5,800 ceiling patches, a quarter of refinement.
+            // (visibleFraction asks a shaft above kShaftPieces pieces.)
             const size_t e = size_t(&source - emitters.data());
-            if (factor > kVisibilityPiece / 10 * kShaftPieces && shaft[e] == kUnasked) {
+            const bool shaftAsked = factor > kVisibilityPiece / 10 * kShaftPieces;
+            if (shaftAsked && shaft[e] == kUnasked) {
               const double lift = occlusion.epsilon() * 10;
               std::array<Vec3, 8> hull;
               for (int c = 0; c < 4; ++c) hull[c] = q[c] + patch.normal * lift, hull[4 + c] = qe[c] + source.normal * lift;
               shaft[e] = hullClear(occlusion, mesh, hull, {}, ignore) ? kClear : kUnclear;
             }
-            const auto seen = factor > kVisibilityPiece / 10 * kShaftPieces && shaft[e] == kClear
+            const auto seen = shaftAsked && shaft[e] == kClear
                                   ? std::array<double, 4>{1, 1, 1, 1}
                                   : visibleFraction(sight, patch.normal, qe, source.normal, kVisibilityPiece / 10, rays);
             d += source.emission * factor * (seen[0] + seen[1] + seen[2] + seen[3]) / 4;
