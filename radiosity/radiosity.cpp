@@ -1625,7 +1625,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 const uint32_t last = std::min(n, first + kRayBatch);
                 for (uint32_t j = first; j < last; ++j) {
                   const uint32_t k = index(j);
-                  const uint32_t v = R.order[g.first + k / per];
+                  const uint32_t from = g.first + k / per, v = R.order[from];
                   uint32_t start = uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count);
                   if (w.lightSum && k % 2 == 0) start = drawnByLight(*w.lightSum, c, start);
                   uint32_t at = c.first + start, item = S.order[at];
@@ -1650,7 +1650,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                   }
                   segments.push_back({w.recv.origin[v], target, w.recv.ignored(v)});
                   segmentVertex.push_back(v);
-                  batchRays.push_back({g.first + k / per, at, false});
+                  batchRays.push_back({from, at, false});
                 }
                 through += traceBatch();
                 asked = prior.second + last;
@@ -1668,7 +1668,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             const bool inheritedMixed = inheritedThrough && inheritedBlocked;
             auto [seen, asked] = wasHidden || inheritedMixed ? std::pair{0u, count} : trace(probes, perReceiver, probe, false, {0, 0});
             // Partly seen on the inherited rays and its own together: opened, as on mixed probes.
-            if (inheritedMixed || (seen == probes && inheritedBlocked) || (seen == 0 && !wasHidden && inheritedThrough))
+            if (inheritedMixed || (seen == probes && inheritedBlocked) || (seen == 0 && inheritedThrough))
               std::tie(seen, asked) = std::pair{1u, probes};
             // A faint pair whose probes are all blocked is hidden: a receiver whose own rays would
             // have seen some of it loses at most the pair's factor (cluster rays −11% in the
