@@ -1510,7 +1510,7 @@ TEST(Memory, HierarchicalTransportPastItsBudgetExitsThreeAndWritesNothing) {
   const fs::path out = tempDir() / "over_budget.glb", report = tempDir() / "over_budget.json";
   fs::remove(out);
   fs::remove(report);
-  const RunResult big = radbake({"bake", in.string(), "-o", out.string(), "--report", report.string(), "--subdivide", "24",
+  const RunResult big = radbake({"bake", in.string(), "-o", out.string(), "--report", report.string(), "--subdivide", "32",
                                  "--max-memory", "64M", "--progress", "none"});
   EXPECT_EQ(big.code, 3) << big.err;
   EXPECT_NE(big.err.find("error: cornell_box.gltf: the hierarchical transport needs more memory than its budget of 48 MiB"),
