@@ -3286,7 +3286,7 @@ std::vector<PatchLight> refineRounds(const Scene& scene, TessellateOptions& opti
       if (bounce && bounceMean > 0) error[k] = std::max(error[k], light[k].bounceError / bounceMean);
     }
     if (round == kMaxRounds || !splitWorst(mesh, error, target, options, phase)) break;
-    mesh = tessellate(scene, options);
+    mesh = tessellate(scene, options, &mesh);
     options.split = mesh.split;
   }
   summary.rounds += phase.rounds;

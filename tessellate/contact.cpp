@@ -416,6 +416,7 @@ bool cuttableShape(const std::vector<Vec3>& x, const Patch& patch) {
 
 Contacts findContacts(const Scene& scene, const std::vector<bool>& cuttable) {
   Contacts contacts;
+  contacts.cuttable = cuttable;
   contacts.segments.resize(scene.primitives.size());
   contacts.touched.assign(scene.primitives.size(), false);
   struct Ref {

@@ -25,6 +25,7 @@ namespace radbake {
 using ContactSegment = std::array<Vec3, 2>;
 
 struct Contacts {
+  std::vector<bool> cuttable;  // the primitives they were found among (findContacts' argument)
   double epsilon = 0;  // points this close are one (the files' rounding)
   // Per primitive (parallel to Scene::primitives): source triangle → the segments inside it.
   std::vector<std::unordered_map<uint32_t, std::vector<ContactSegment>>> segments;

@@ -1034,7 +1034,7 @@ void cutAtContacts(const Scene& scene, const Contacts& contacts, Welder& welder,
 
 }  // namespace
 
-PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
+PatchMesh tessellate(const Scene& scene, const TessellateOptions& options, const PatchMesh* previous) {
   PatchMesh mesh;
   mesh.primitives.resize(scene.primitives.size());
   Welder welder{mesh, {}};
@@ -1042,7 +1042,9 @@ PatchMesh tessellate(const Scene& scene, const TessellateOptions& options) {
   std::vector<bool> cuttable(scene.primitives.size(), false);
   for (size_t p = 0; p < scene.primitives.size(); ++p)
     cuttable[p] = options.cutContacts && !options.flatPatches && schemeOf(scene.primitives[p], options) == SubdivisionScheme::kNone;
-  const Contacts contacts = findContacts(scene, cuttable);
+  if (previous && previous->contacts && previous->contacts->cuttable == cuttable) mesh.contacts = previous->contacts;
+  else mesh.contacts = std::make_shared<const Contacts>(findContacts(scene, cuttable));
+  const Contacts& contacts = *mesh.contacts;
   mesh.contactSegments = contacts.count;
   mesh.split = options.split;
   const RefinementPlan plan = planRefinement(scene, options, mesh.split);

@@ -305,4 +305,25 @@ TEST(Contact, TheCornellFloorIsCutAlongTheBlocksFootprints) {
   }
 }
 
+// Refinement tessellates one scene again and again with other splits and hands each mesh to the
+// next call: the contacts are taken from it, not found again, and the mesh is the one a fresh call
+// makes. Asked to cut other primitives (here none), the call finds its own.
+TEST(Contact, ATessellationAgainTakesThePreviousMeshsContacts) {
+  const Scene scene = importScene((kScenes / "cornell_box.gltf").string());
+  TessellateOptions o;
+  const PatchMesh first = tessellate(scene, o);
+  o.split = {{0, 0, 0, 0, 0}, {0, 0, 1, 1, 1}};
+  const PatchMesh again = tessellate(scene, o, &first), fresh = tessellate(scene, o);
+  EXPECT_EQ(again.contacts, first.contacts);
+  EXPECT_NE(fresh.contacts, first.contacts);
+  EXPECT_EQ(again.contactSegments, fresh.contactSegments);
+  ASSERT_EQ(again.patches.size(), fresh.patches.size());
+  EXPECT_EQ(again.positions, fresh.positions);
+  for (size_t k = 0; k < again.patches.size(); ++k) EXPECT_EQ(again.patches[k].v, fresh.patches[k].v);
+  o.cutContacts = false;
+  const PatchMesh uncut = tessellate(scene, o, &first);
+  EXPECT_NE(uncut.contacts, first.contacts);
+  EXPECT_EQ(uncut.contactSegments, 0u);
+}
+
 }  // namespace
