@@ -1136,17 +1136,18 @@ constexpr double kHiddenFactorPerRay = 1e-4;
 // kClusterRays): measured on the Cornell box at N = 20, it halves the rays of 4 per receiver for
 // 0.2% RMS and 2.6% largest error, against 0.17% and 1.9%.
 constexpr double kFactorPerRay = 1e-3;
-// And a link's rays in all: one for every kFactorPerRay of its factor, up to this many, spread over
-// its receivers. A link of one or two receivers to a bright cluster was decided on 4 rays: in the
-// lamp room, floor vertices took ceiling clusters around the lamp whole (factors weighted by light
-// of 0.01-0.03) that they see 17-59% of.
+// In the refinement by light, whose factors carry their source's brightness, a link's rays in all
+// grow the same way up to this many, spread over its receivers. A link of one or two receivers to a
+// bright cluster was decided on 4 rays: in the lamp room, floor vertices took ceiling clusters
+// around the lamp whole (weighted factors of 0.01-0.03) that they see 17-59% of.
 constexpr uint32_t kLinkRays = 32;
 // A cluster dipping under a flat group's plane is linked when its horizon error is below this
 // share of --accuracy.
 constexpr double kHorizonShare = 0.1;
 // A partly hidden cluster whose factor (about A/(π d²)) is below this share of --accuracy is linked
-// to each vertex with the share of kFractionRays rays that get through, instead of being opened
-// further: the share's sampling error, at most the factor over its rays, stays below --accuracy.
+// to each vertex with the share of its factor that kFractionRays rays see (visibleShare), instead
+// of being opened further. The share is sampled without bias, and the link's error estimate counts
+// its noise as the factor over the rays.
 // (Fixed at 1e-4 of the hemisphere until the twenty-second session, when pairs along shadow edges
 // were opened down to single patches: with visibleShare and kLinkRays, Cornell box at N = 20
 // 4.17 -> 3.32 s, 0.035% -> 0.044% RMS and 0.33% -> 0.63% largest against exact; issue 16's
@@ -1376,7 +1377,8 @@ Vec3 linkTarget(const PatchMesh& mesh, uint32_t patch, uint32_t k) {
 }
 
 // Rays per receiver of a link: one for every kFactorPerRay of its factor, up to kClusterRays, and
-// at least kClusterRays over the group (see walkPairs).
+// at least kClusterRays over the group (see walkPairs); with `cap` above kClusterRays (kLinkRays),
+// the link's rays in all grow on with its factor up to `cap`, spread over the group.
 uint32_t raysPerReceiver(uint32_t receivers, double factor, uint32_t cap) {
   const uint32_t asked = std::clamp<uint32_t>(uint32_t(std::ceil(std::min(1.0, factor) / kFactorPerRay)), 1, cap);
   return std::max((std::max(kClusterRays, asked) + receivers - 1) / receivers, std::min(asked, kClusterRays));
