@@ -1453,18 +1453,24 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     std::array<bool, kRayBatch> seenBuffer;
     std::vector<Evidence> traced, batchRays;  // the pair's own rays; this batch's (positions, answer pending)
     size_t shot = 0;
-    // Traces `segments` (each from receiver segmentVertex[e]) as one batch and counts those that get
-    // through: Embree's answer and, in double precision, the receiver's own patches.
-    auto traceBatch = [&] {
+    // Traces `segments` (each from receiver segmentVertex[e]) as one batch: seenBuffer[e] says
+    // whether each gets through, Embree's answer and, in double precision, the receiver's own patches.
+    auto traceSeen = [&] {
       w.occlusion.visibleEach(segments, seenBuffer.data());
       shot += segments.size();
-      uint32_t through = 0;
       for (size_t e = 0; e < segments.size(); ++e) {
         const uint32_t v = segmentVertex[e];
         const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], {}, w.recv.own(v)};
-        const bool seen = seenBuffer[e] && !sight.crossesOwn(segments[e].to);
-        through += seen;
-        if (e < batchRays.size()) traced.push_back({batchRays[e].receiver, batchRays[e].source, seen});
+        seenBuffer[e] = seenBuffer[e] && !sight.crossesOwn(segments[e].to);
+      }
+    };
+    // traceSeen, counting those that get through and keeping this pair's rays (batchRays) as traced.
+    auto traceBatch = [&] {
+      traceSeen();
+      uint32_t through = 0;
+      for (size_t e = 0; e < segments.size(); ++e) {
+        through += seenBuffer[e];
+        if (e < batchRays.size()) traced.push_back({batchRays[e].receiver, batchRays[e].source, seenBuffer[e]});
       }
       batchRays.clear();
       return through;
@@ -1505,21 +1511,22 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
       const std::vector<double>& sum = w.lightSum ? *w.lightSum : areaSum;
       std::array<double, kFractionRays> factor{};
       segments.clear();
+      segmentVertex.clear();
       for (uint32_t k = 0; k < kFractionRays; ++k) {
         const uint32_t patch = w.patchOf[S.order[c.first + drawnBy(sum, c, (k + 0.5) / kFractionRays)]];
         const Vec3& m = w.mesh.patches[patch].normal;
         const Vec3 target = linkTarget(w.mesh, patch, k) + m * lift, d = target - w.recv.point[v];
         const double d2 = dot(d, d);
         factor[segments.size()] = std::max(0.0, dot(w.recv.normal[v], d)) * std::max(0.0, -dot(m, d)) / (d2 * d2);
-        if (factor[segments.size()] > 0) segments.push_back({w.recv.origin[v], target, w.recv.ignored(v)});
+        if (!(factor[segments.size()] > 0)) continue;
+        segments.push_back({w.recv.origin[v], target, w.recv.ignored(v)});
+        segmentVertex.push_back(v);
       }
-      w.occlusion.visibleEach(segments, seenBuffer.data());
-      shot += segments.size();
-      const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], {}, w.recv.own(v)};
+      traceSeen();
       double all = 0, seen = 0;
       for (size_t e = 0; e < segments.size(); ++e) {
         all += factor[e];
-        if (seenBuffer[e] && !sight.crossesOwn(segments[e].to)) seen += factor[e];
+        if (seenBuffer[e]) seen += factor[e];
       }
       return all > 0 ? seen / all : 0.0;
     };
