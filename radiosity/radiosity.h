@@ -96,7 +96,8 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
 // target or half the budget is spent, the light those surfaces reflect once is gathered at the
 // samples too (64 rays each, from the mesh the first phase left), so a patch lit only by other surfaces (a lamp's back 2 cm under a ceiling)
 // is split where that light changes. `mesh` is replaced by the refined one and `options.split`
-// holds its cells.
+// holds its cells. `progress`, if given, hears the fraction done (by patches measured, which is
+// nearly all of the time), rising to 1 at the end; serialized calls from worker threads.
 struct Refinement {
   size_t maxPatches = 0;
   int rounds = 0;
@@ -105,7 +106,7 @@ struct Refinement {
   bool budgetReached = false;  // stopped with cells above the target
 };
 Refinement refineMesh(const Scene& scene, TessellateOptions& options, PatchMesh& mesh, double target, size_t maxPatches,
-                      const Vec3& sky = {});
+                      const Vec3& sky = {}, const std::function<void(double)>& progress = {});
 // The solved radiance at the surface point nearest to `point` among patches whose normal faces
 // `normal` (dot > 0): bilinear inside a patch for the bilinear method, the patch value for the
 // constant method.

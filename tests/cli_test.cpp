@@ -1502,6 +1502,27 @@ TEST(Progress, JsonLinesNameEachStage) {
     EXPECT_NE(r.err.find(std::string("{\"progress\":0.0,\"stage\":\"") + stage + "\"}"), std::string::npos) << r.err;
 }
 
+TEST(Progress, RefinementReportsAsItMeasures) {
+  // The default bake refines before it solves (issue 16's room: 10 of its 80 s, the whole
+  // 2CylinderEngine over a minute); the stage once said 0 and nothing more until the solve began.
+  const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o",
+                               (tempDir() / "refine_progress.glb").string(), "--progress", "json", "--max-patches", "3000"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::vector<double> refine;
+  std::istringstream lines(r.err);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] != '{') continue;  // a warning
+    const json j = json::parse(line);
+    if (j["stage"] == "refine") refine.push_back(j["progress"].get<double>());
+  }
+  ASSERT_GE(refine.size(), 10u) << r.err;
+  EXPECT_TRUE(std::is_sorted(refine.begin(), refine.end())) << r.err;
+  EXPECT_EQ(refine.front(), 0.0);
+  EXPECT_EQ(refine.back(), 1.0);
+  // Reports along the way, not only the start and the end.
+  EXPECT_TRUE(std::any_of(refine.begin(), refine.end(), [](double f) { return f > 0.2 && f < 0.8; })) << r.err;
+}
+
 TEST(Memory, HierarchicalTransportPastItsBudgetExitsThreeAndWritesNothing) {
   // The hierarchical transport has no matrix-free fallback: past 3/4 of --max-memory it stops with
   // exit 3 and one line naming the input (the 1M-triangle room would otherwise meet the kernel's

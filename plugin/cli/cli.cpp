@@ -309,7 +309,8 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   Refinement refined;
   if (options.refine) {
     progress.stage("refine");
-    refined = refineMesh(scene, tessellateOptions, mesh, *options.refine, options.maxPatches, options.sky ? parseSky(*options.sky) : Vec3{});
+    refined = refineMesh(scene, tessellateOptions, mesh, *options.refine, options.maxPatches, options.sky ? parseSky(*options.sky) : Vec3{},
+                         [&](double f) { progress.report(f); });
     // Asked-for targets are reported as missed; the default's budget is its time limit, and the
     // balance check below still warns where that leaves the light wrong.
     if (refined.budgetReached && !options.refineByDefault)

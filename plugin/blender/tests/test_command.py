@@ -83,6 +83,13 @@ class Progress(unittest.TestCase):
         self.assertAlmostEqual(command.overall_fraction("export", 1), 1.0)
         self.assertEqual(command.overall_fraction("import", 0), 0.0)
 
+    def test_every_stage_radbake_names_has_its_share(self):
+        # radbake's stages in its order (tests/cli_test.cpp, Progress.JsonLinesNameEachStage).
+        self.assertEqual([name for name, _ in command.STAGES], ["import", "tessellate", "refine", "solve", "export"])
+        self.assertAlmostEqual(sum(share for _, share in command.STAGES), 1.0)
+        self.assertLess(command.overall_fraction("tessellate", 1), command.overall_fraction("refine", 0.5))
+        self.assertLess(command.overall_fraction("refine", 0.5), command.overall_fraction("solve", 0))
+
 
 class FindRadbake(unittest.TestCase):
     def test_preference_wins_and_must_be_executable(self):
