@@ -58,6 +58,19 @@ struct ClusterTree {
 // thread count.
 ClusterTree buildClusterTree(const std::vector<TreeItem>& items);
 
+// A value per node from the leaves up: `leaf(k)` at leaf node k (its one item is
+// tree.order[nodes[k].first]), `combine(a, b)` of its children's values at an inner node. One
+// backward pass: children come after their parent.
+template <typename T, typename Leaf, typename Combine>
+std::vector<T> bottomUp(const ClusterTree& tree, Leaf leaf, Combine combine) {
+  std::vector<T> value(tree.nodes.size());
+  for (size_t k = tree.nodes.size(); k-- > 0;) {
+    const TreeNode& node = tree.nodes[k];
+    value[k] = node.count == 1 ? T(leaf(k)) : T(combine(value[node.child[0]], value[node.child[1]]));
+  }
+  return value;
+}
+
 // Where another node lies relative to the tangent planes of a node's items: every item's plane (a
 // patch's, or a receiver's horizon) has the other's points at heights within [low, high], up to
 // `rounding`. A flat node has thickness 0 and a cone of 0: the nodes in its own plane are at height 0

@@ -1422,23 +1422,15 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
   const double lift = w.occlusion.epsilon() * 10, faintFactor = w.accuracy * kFaintShare;
   std::vector<Vec3> centre(w.patchOf.size());  // the cluster rays' targets, per source item
   for (size_t k = 0; k < centre.size(); ++k) centre[k] = pointOnPatch(corners(w.mesh, w.mesh.patches[w.patchOf[k]]), 0, 0);
-  std::vector<double> largestPatch(S.nodes.size());  // per source node, the area of its largest patch
-  for (size_t k = S.nodes.size(); k-- > 0;) {
-    const TreeNode& node = S.nodes[k];
-    largestPatch[k] = node.count == 1 ? w.mesh.patches[w.patchOf[S.order[node.first]]].area
-                                      : std::max(largestPatch[node.child[0]], largestPatch[node.child[1]]);
-  }
+  // Per source node, the area of its largest patch.
+  const std::vector<double> largestPatch = bottomUp<double>(
+      S, [&](size_t k) { return w.mesh.patches[w.patchOf[S.order[S.nodes[k].first]]].area; }, [](double a, double b) { return std::max(a, b); });
   std::vector<double> areaSum(S.order.size() + 1, 0.0);  // the source order's running sum of area
   for (size_t k = 0; k < S.order.size(); ++k) areaSum[k + 1] = areaSum[k] + w.mesh.patches[w.patchOf[S.order[k]]].area;
   // Per receiver node its traced vertices, per source node its bright patches (w.traced); per
   // receiver node its vertices that see backs (w.seesBacks).
-  auto countIn = [](const ClusterTree& tree, auto flagged) {  // bottom-up: children after their parent
-    std::vector<uint32_t> in(tree.nodes.size(), 0);
-    for (size_t k = tree.nodes.size(); k-- > 0;) {
-      const TreeNode& node = tree.nodes[k];
-      in[k] = node.count == 1 ? uint32_t(flagged(tree.order[node.first])) : in[node.child[0]] + in[node.child[1]];
-    }
-    return in;
+  auto countIn = [](const ClusterTree& tree, auto flagged) {
+    return bottomUp<uint32_t>(tree, [&](size_t k) { return flagged(tree.order[tree.nodes[k].first]); }, std::plus<uint32_t>());
   };
   std::vector<uint32_t> tracedIn, brightIn, backsIn;
   if (w.traced) {
@@ -2306,11 +2298,8 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
     return std::max(own, sky - own);
   };
   for (size_t k = 0; k < S.nodes.size(); ++k) weight[k] = std::max(1.0, brightness(S.nodes[k]));
-  std::vector<double> peak(S.nodes.size(), 1.0);  // children after their parent: bottom-up
-  for (size_t k = S.nodes.size(); k-- > 0;) {
-    const TreeNode& c = S.nodes[k];
-    peak[k] = c.count == 1 ? weight[k] : std::max(peak[c.child[0]], peak[c.child[1]]);
-  }
+  // And the brightest patch's, per node.
+  const std::vector<double> peak = bottomUp<double>(S, [&](size_t k) { return weight[k]; }, [](double a, double b) { return std::max(a, b); });
   // The links to walk again, per task (tasks own disjoint receiver subtrees).
   const auto& tasks = h.groups.tasks;
   std::vector<std::vector<std::pair<uint32_t, uint32_t>>> starts(tasks.size()), hiddenStarts(tasks.size());
