@@ -1502,19 +1502,25 @@ TEST(Progress, JsonLinesNameEachStage) {
     EXPECT_NE(r.err.find(std::string("{\"progress\":0.0,\"stage\":\"") + stage + "\"}"), std::string::npos) << r.err;
 }
 
+// The fractions of one stage's --progress json lines on stderr, in their order (warnings skipped).
+std::vector<double> stageProgress(const std::string& err, const std::string& stage) {
+  std::vector<double> out;
+  std::istringstream lines(err);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] != '{') continue;  // a warning
+    const json j = json::parse(line);
+    if (j["stage"] == stage) out.push_back(j["progress"].get<double>());
+  }
+  return out;
+}
+
 TEST(Progress, RefinementReportsAsItMeasures) {
   // The default bake refines before it solves (issue 16's room: 10 of its 80 s, the whole
   // 2CylinderEngine over a minute); the stage once said 0 and nothing more until the solve began.
   const RunResult r = radbake({"bake", (kTestData / "scenes" / "cornell_box.gltf").string(), "-o",
                                (tempDir() / "refine_progress.glb").string(), "--progress", "json", "--max-patches", "3000"});
   ASSERT_EQ(r.code, 0) << r.err;
-  std::vector<double> refine;
-  std::istringstream lines(r.err);
-  for (std::string line; std::getline(lines, line);) {
-    if (line.empty() || line[0] != '{') continue;  // a warning
-    const json j = json::parse(line);
-    if (j["stage"] == "refine") refine.push_back(j["progress"].get<double>());
-  }
+  const std::vector<double> refine = stageProgress(r.err, "refine");
   ASSERT_GE(refine.size(), 10u) << r.err;
   EXPECT_TRUE(std::is_sorted(refine.begin(), refine.end())) << r.err;
   EXPECT_EQ(refine.front(), 0.0);
@@ -1555,14 +1561,8 @@ TEST(Progress, SkyPassReportsBeforeTheTransport) {
     args.insert(args.end(), extra.begin(), extra.end());
     const RunResult r = radbake(args);
     EXPECT_EQ(r.code, 0) << r.err;
-    std::vector<double> solve;
-    std::istringstream lines(r.err);
-    for (std::string line; std::getline(lines, line);) {
-      if (line.empty() || line[0] != '{') continue;  // a warning
-      const json j = json::parse(line);
-      if (j["stage"] == "solve" && j["progress"].get<double>() > 0 && j["progress"].get<double>() < 0.8)
-        solve.push_back(j["progress"].get<double>());
-    }
+    std::vector<double> solve = stageProgress(r.err, "solve");
+    std::erase_if(solve, [](double f) { return !(f > 0 && f < 0.8); });
     return solve;
   };
   // Both methods' default (hierarchical) transport. (The constant method's sky pass reported
