@@ -708,13 +708,19 @@ constexpr double kGaussNode[4] = {-0.8611363115940526, -0.3399810435848563, 0.33
 constexpr double kGaussPair = 0.5773502691896257;  // the 2×2 Gauss nodes, ±1/√3
 constexpr double kGaussWeight[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
 
+// The point kernel cos θ_n cos θ_m / r² over r² (the bilinear kernel's integrand less its shape
+// function, and less 1/π): from a receiver of normal n to a surface point of normal m at offset d,
+// zero where either faces away.
+double pointKernel(const Vec3& n, const Vec3& m, const Vec3& d) {
+  const double r2 = dot(d, d);
+  return std::max(0.0, dot(n, d)) * std::max(0.0, -dot(m, d)) / (r2 * r2);
+}
+
 // The shape functions' unoccluded kernel from a receiving point over a piece, by a 4×4 Gauss grid
 // (no Jacobian: only its ratios are used, the visible fractions of a piece).
 std::array<double, 4> gridWeight(const Vec3& from, const Vec3& n, const std::array<Vec3, 4>& q, const Vec3& qNormal,
                                  const Piece& piece, int a, int b) {
-  const Vec3 d = piece.at(q, kGaussNode[a], kGaussNode[b]) - from;
-  const double r2 = dot(d, d);
-  const double kernel = std::max(0.0, dot(n, d)) * std::max(0.0, -dot(qNormal, d)) / (r2 * r2);
+  const double kernel = pointKernel(n, qNormal, piece.at(q, kGaussNode[a], kGaussNode[b]) - from);
   const auto nj = shapeFunctions(piece.s + piece.half * kGaussNode[a], piece.t + piece.half * kGaussNode[b]);
   std::array<double, 4> w;
   for (int j = 0; j < 4; ++j) w[j] = kGaussWeight[a] * kGaussWeight[b] * nj[j] * (kernel > 0 ? kernel : 1e-300);
@@ -1507,9 +1513,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
       for (uint32_t k = 0; k < kFractionRays; ++k) {
         const uint32_t patch = w.patchOf[S.order[c.first + drawnBy(sum, c, (k + 0.5) / kFractionRays)]];
         const Vec3& m = w.mesh.patches[patch].normal;
-        const Vec3 target = linkTarget(w.mesh, patch, k) + m * lift, d = target - w.recv.point[v];
-        const double d2 = dot(d, d);
-        factor[segments.size()] = std::max(0.0, dot(w.recv.normal[v], d)) * std::max(0.0, -dot(m, d)) / (d2 * d2);
+        const Vec3 target = linkTarget(w.mesh, patch, k) + m * lift;
+        factor[segments.size()] = pointKernel(w.recv.normal[v], m, target - w.recv.point[v]);
         if (!(factor[segments.size()] > 0)) continue;
         segments.push_back({w.recv.origin[v], target, w.recv.ignored(v)});
         segmentVertex.push_back(v);
