@@ -7,6 +7,11 @@
 
 namespace radbake {
 
+int normalBin(const Vec3& m) {
+  const int axis = std::abs(m.x) >= std::abs(m.y) && std::abs(m.x) >= std::abs(m.z) ? 0 : (std::abs(m.y) >= std::abs(m.z) ? 1 : 2);
+  return 2 * axis + (m[axis] < 0);
+}
+
 ClusterTree buildClusterTree(const std::vector<TreeItem>& items) {
   ClusterTree tree;
   const size_t n = items.size();
@@ -17,12 +22,8 @@ ClusterTree buildClusterTree(const std::vector<TreeItem>& items) {
     for (int k = 0; k < items[p].pointCount; ++k) c += items[p].points[k];
     centre[p] = items[p].centre ? *items[p].centre : c / items[p].pointCount;
   }
-  std::vector<uint8_t> bin(n);  // dominant axis and sign of the normal: 0..5
-  for (size_t p = 0; p < n; ++p) {
-    const Vec3& m = items[p].normal;
-    const int axis = std::abs(m.x) >= std::abs(m.y) && std::abs(m.x) >= std::abs(m.z) ? 0 : (std::abs(m.y) >= std::abs(m.z) ? 1 : 2);
-    bin[p] = uint8_t(2 * axis + (m[axis] < 0));
-  }
+  std::vector<uint8_t> bin(n);
+  for (size_t p = 0; p < n; ++p) bin[p] = uint8_t(normalBin(items[p].normal));
   tree.order.resize(n);
   for (size_t p = 0; p < n; ++p) tree.order[p] = uint32_t(p);
   tree.nodes.reserve(2 * n);
@@ -101,6 +102,14 @@ ClusterTree buildClusterTree(const std::vector<TreeItem>& items) {
           const double ca = centre[a][axis], cb = centre[b][axis];
           return ca < cb || (ca == cb && a < b);
         });
+        // Items at one point stay on one side (the receivers of a flat-shaded crease, one per face,
+        // share their visibility rays where a group holds them all): those beside the median go
+        // right, or, where the whole left part is at that point, the right part's join them.
+        const Vec3 at = centre[*(begin + leftCount)];
+        auto elsewhere = [&](uint32_t p) { return !(centre[p] == at); };
+        uint32_t left = uint32_t(std::partition(begin, begin + leftCount, elsewhere) - begin);
+        if (left == 0) left = uint32_t(std::partition(begin + leftCount, end, [&](uint32_t p) { return !elsewhere(p); }) - begin);
+        if (left > 0 && left < node.count) leftCount = left;
       }
       for (int k = 0; k < 2; ++k) {
         TreeNode child;

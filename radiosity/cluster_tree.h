@@ -53,9 +53,12 @@ struct ClusterTree {
   bool empty() const { return nodes.empty(); }
 };
 
+// The dominant axis and sign of a normal, 0..5: the tree's first split separates these bins.
+int normalBin(const Vec3& normal);
+
 // Built in a fixed order (items first separated by part, then by the dominant axis of their
-// normal, then median splits on the longest axis, ties by index): the same tree, and the same bits downstream, for any
-// thread count.
+// normal, then median splits on the longest axis, ties by index, items at one point kept on one
+// side): the same tree, and the same bits downstream, for any thread count.
 ClusterTree buildClusterTree(const std::vector<TreeItem>& items);
 
 // A value per node from the leaves up: `leaf(k)` at leaf node k (its one item is

@@ -91,6 +91,23 @@ struct ClusterLink {
 };
 
 constexpr uint32_t kNoLeaf = UINT32_MAX;  // a vertex that gathers nothing is in no group
+constexpr uint32_t kNoMate = UINT32_MAX;
+
+struct Receivers;
+
+// Receivers at one point share a site (receiverSites): per receiver its site's first receiver, and
+// per site of more than one receiver what its rays step over, the patches of all of them and their
+// twins (`patches`, the first `own` of them tested exactly, as a receiver's own are: Sight).
+struct ReceiverSites {
+  struct Sight {
+    std::vector<uint32_t> patches;
+    uint32_t own = 0;
+  };
+  std::vector<uint32_t> first;
+  std::vector<Sight> sight;  // per receiver; empty but at a shared site's first
+  std::span<const uint32_t> ignored(const Receivers& recv, uint32_t v) const;
+  std::span<const uint32_t> own(const Receivers& recv, uint32_t v) const;
+};
 
 // The receiver tree and the parallel tasks over it, shared by the sky and transport walks.
 struct ReceiverGroups {
@@ -98,6 +115,15 @@ struct ReceiverGroups {
   std::vector<uint32_t> leafOf;  // vertex → its leaf
   std::vector<int32_t> parent;   // node → its parent (-1 for the root): a vertex's groups, leaf up
   std::vector<uint32_t> tasks;   // subtrees of at most kTaskVertices vertices, in tree order
+  // Receivers at one point (a flat-shaded crease's vertices, one per face, on one side) are one
+  // site: their rays start within a hair of each other, so a group's visibility rays are traced
+  // from one of them, its site's first in the group, for all of them (receiverSites). Per tree
+  // order index, the order index of the previous and next receiver of its site (kNoMate: none);
+  // per node, how many sites it holds (the tree keeps a site's receivers together: items at one
+  // point are not split apart, buildClusterTree).
+  std::vector<uint32_t> mateBefore, mateAfter;
+  std::vector<uint32_t> siteCount;
+  ReceiverSites site;
 };
 
 struct Hierarchical {
@@ -292,6 +318,15 @@ struct Receivers {
     return std::find(all.begin() + ownCount[v], all.end(), patch) != all.end();
   }
 };
+
+std::span<const uint32_t> ReceiverSites::ignored(const Receivers& recv, uint32_t v) const {
+  const Sight& s = sight[first[v]];
+  return s.patches.empty() ? recv.ignored(v) : std::span<const uint32_t>(s.patches);
+}
+std::span<const uint32_t> ReceiverSites::own(const Receivers& recv, uint32_t v) const {
+  const Sight& s = sight[first[v]];
+  return s.patches.empty() ? recv.own(v) : std::span<const uint32_t>(s.patches.data(), s.own);
+}
 
 bool usesCorner(const Patch& p, int k) { return k < 3 || p.v[3] != p.v[2]; }
 
@@ -1205,9 +1240,75 @@ std::vector<bool> gatheringReceivers(const PatchMesh& mesh, const Receivers& rec
   return gathers;
 }
 
+// Per receiver, its site: the first receiver at the same point on the same side, whose normal falls
+// in the same bin of the receiver tree (normalBin), their rays' origins on one side of every other
+// patch there (a flat-shaded crease has one vertex per face at a point). The constant method's
+// receivers are patches: each its own.
+ReceiverSites receiverSites(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, Method method) {
+  std::vector<uint32_t> site(recv.point.size());
+  std::map<std::tuple<double, double, double, bool, int>, std::vector<uint32_t>> firsts;
+  // Whether the two receivers' origins lie on different sides of a patch at the point that is
+  // neither's own, or in its plane: where a floor is cut along the foot of a block standing on it,
+  // the covered piece's vertex starts its rays in the block's wall (the Cornell box's floor beside
+  // the tall block lost up to 9.9% of its light through it when shared).
+  std::vector<uint32_t> near;
+  auto apart = [&](uint32_t a, uint32_t b) {
+    const Vec3 &oa = recv.origin[a], &ob = recv.origin[b];
+    const double reach = length(oa - recv.point[a]) + length(ob - recv.point[b]), margin = 1e-3 * reach;
+    near.clear();
+    occlusion.patchesNear(recv.point[a], reach, near);
+    for (uint32_t p : near) {
+      const auto ownA = recv.own(a), ownB = recv.own(b);
+      if (std::find(ownA.begin(), ownA.end(), p) != ownA.end() || std::find(ownB.begin(), ownB.end(), p) != ownB.end()) continue;
+      const Patch& patch = mesh.patches[p];
+      const Vec3& q0 = mesh.positions[patch.v[0]];
+      const double da = dot(patch.normal, oa - q0), db = dot(patch.normal, ob - q0);
+      if (!((da > margin && db > margin) || (da < -margin && db < -margin))) return true;
+    }
+    return false;
+  };
+  for (uint32_t v = 0; v < site.size(); ++v) {
+    site[v] = v;
+    const auto own = recv.own(v);
+    if (method == Method::kConstant || own.empty()) continue;
+    const Vec3& p = recv.point[v];
+    std::vector<uint32_t>& sites = firsts[{p.x, p.y, p.z, mesh.patches[own[0]].backSide, normalBin(recv.normal[v])}];
+    for (uint32_t first : sites)
+      if (!apart(first, v)) {
+        site[v] = first;
+        break;
+      }
+    if (site[v] == v) sites.push_back(v);
+  }
+  ReceiverSites out;
+  out.sight.resize(site.size());
+  for (uint32_t v = 0; v < site.size(); ++v) {
+    if (site[v] == v) continue;
+    ReceiverSites::Sight& s = out.sight[site[v]];
+    if (s.patches.empty()) {
+      const auto own = recv.own(site[v]);
+      s.patches.assign(own.begin(), own.end());
+    }
+    const auto own = recv.own(v);
+    s.patches.insert(s.patches.end(), own.begin(), own.end());
+  }
+  for (uint32_t v = 0; v < site.size(); ++v) {
+    ReceiverSites::Sight& s = out.sight[v];
+    if (s.patches.empty()) continue;
+    std::sort(s.patches.begin(), s.patches.end());
+    s.patches.erase(std::unique(s.patches.begin(), s.patches.end()), s.patches.end());
+    s.own = uint32_t(s.patches.size());
+    for (uint32_t k = 0; k < s.own; ++k)
+      if (mesh.patches[s.patches[k]].twin >= 0) s.patches.push_back(uint32_t(mesh.patches[s.patches[k]].twin));
+  }
+  out.first = std::move(site);
+  return out;
+}
+
 // The receiver tree over `items` (one per unknown: a vertex, or for the constant method a patch),
-// those that gather anything.
-ReceiverGroups receiverGroups(const std::vector<TreeItem>& all, const std::vector<bool>& gathers) {
+// those that gather anything, and where their sites lie in it.
+ReceiverGroups receiverGroups(const std::vector<TreeItem>& all, const std::vector<bool>& gathers, ReceiverSites&& sites) {
+  const std::vector<uint32_t>& site = sites.first;
   ReceiverGroups groups;
   const size_t nv = all.size();
   std::vector<TreeItem> items;
@@ -1227,6 +1328,22 @@ ReceiverGroups receiverGroups(const std::vector<TreeItem>& all, const std::vecto
     for (int c : node.child)
       if (c >= 0) groups.parent[c] = int32_t(k);
   }
+  const ClusterTree& tree = groups.tree;
+  groups.mateBefore.assign(tree.order.size(), kNoMate);
+  groups.mateAfter.assign(tree.order.size(), kNoMate);
+  std::vector<uint32_t> last(nv, kNoMate);  // per site, its receiver last seen in tree order
+  for (uint32_t k = 0; k < tree.order.size(); ++k) {
+    uint32_t& before = last[site[tree.order[k]]];
+    if (before != kNoMate) groups.mateAfter[before] = k;
+    groups.mateBefore[k] = std::exchange(before, k);
+  }
+  groups.siteCount.resize(tree.nodes.size());
+  for (size_t k = 0; k < tree.nodes.size(); ++k) {
+    const TreeNode& node = tree.nodes[k];
+    for (uint32_t i = node.first; i < node.first + node.count; ++i)
+      groups.siteCount[k] += groups.mateBefore[i] == kNoMate || groups.mateBefore[i] < node.first;
+  }
+  groups.site = std::move(sites);
   for (std::vector<uint32_t> stack{0}; !stack.empty() && !groups.tree.empty();) {
     const uint32_t k = stack.back();
     stack.pop_back();
@@ -1451,6 +1568,25 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     std::array<bool, kRayBatch> seenBuffer;
     std::vector<Evidence> traced, batchRays;  // the pair's own rays; this batch's (positions, answer pending)
     size_t shot = 0;
+    // The current group's sites (ReceiverGroups::siteCount): the tree order index of each one's
+    // first receiver in the group, listed only where some site has more than one there.
+    std::vector<uint32_t> siteFirst;
+    auto listSites = [&](uint32_t gi) {
+      const TreeNode& g = R.nodes[gi];
+      siteFirst.clear();
+      if (w.groups.siteCount[gi] == g.count) return;
+      for (uint32_t k = g.first; k < g.first + g.count; ++k)
+        if (w.groups.mateBefore[k] == kNoMate || w.groups.mateBefore[k] < g.first) siteFirst.push_back(k);
+    };
+    auto siteAt = [&](const TreeNode& g, uint32_t s) { return siteFirst.empty() ? g.first + s : siteFirst[s]; };
+    // Whether a point lies above the horizon of some receiver of the group at site s.
+    auto aboveSomeHorizon = [&](const TreeNode& g, uint32_t s, const Vec3& to) {
+      for (uint32_t k = siteAt(g, s); k < g.first + g.count; k = w.groups.mateAfter[k]) {
+        const uint32_t v = R.order[k];
+        if (dot(w.recv.normal[v], to - w.recv.point[v]) > 0) return true;
+      }
+      return false;
+    };
     // Traces `segments` (each from receiver segmentVertex[e]) as one batch: seenBuffer[e] says
     // whether each gets through, Embree's answer and, in double precision, the receiver's own patches.
     auto traceSeen = [&] {
@@ -1458,7 +1594,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
       shot += segments.size();
       for (size_t e = 0; e < segments.size(); ++e) {
         const uint32_t v = segmentVertex[e];
-        const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], {}, w.recv.own(v)};
+        const Sight sight{w.occlusion, w.mesh, w.recv.origin[v], {}, w.groups.site.own(w.recv, v)};
         seenBuffer[e] = seenBuffer[e] && !sight.crossesOwn(segments[e].to);
       }
     };
@@ -1476,21 +1612,23 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     // Whether every receiver of g sees nothing of c's patches: a ray from each receiver to each
     // patch centre that could send it light (facing it, above its horizon), all blocked. A few
     // rays spread over the pairs go first, then the rest in batches, until one gets through.
-    auto hiddenFromAll = [&](const TreeNode& g, const TreeNode& c) {
-      const uint32_t n = g.count * c.count, probes = std::min(n, kClusterRays);
+    auto hiddenFromAll = [&](uint32_t gi, const TreeNode& c) {
+      const TreeNode& g = R.nodes[gi];
+      listSites(gi);
+      const uint32_t n = w.groups.siteCount[gi] * c.count, probes = std::min(n, kClusterRays);
       for (uint32_t first = 0; first < n;) {
         const uint32_t last = first == 0 ? probes : std::min(n, first + kRayBatch);
         segments.clear();
         segmentVertex.clear();
         for (uint32_t j = first; j < last; ++j) {
           const uint32_t k = uint32_t((uint64_t(j) * 2654435761u) % n);  // a permutation of [0, n)
-          const uint32_t v = R.order[g.first + k / c.count], item = S.order[c.first + k % c.count];
+          const uint32_t s = k / c.count, v = R.order[siteAt(g, s)], item = S.order[c.first + k % c.count];
           const Vec3& m = w.mesh.patches[w.patchOf[item]].normal;
           const double side = dot(m, w.recv.origin[v] - centre[item]);
           if (side > 0 ? w.backsOnly : !w.cover) continue;  // a front of the transport's, a back of the cover's
           const Vec3 to = centre[item] + m * (side > 0 ? lift : -lift);
-          if (dot(w.recv.normal[v], to - w.recv.point[v]) <= 0) continue;  // below v's horizon
-          segments.push_back({w.recv.origin[v], to, w.recv.ignored(v)});
+          if (!aboveSomeHorizon(g, s, to)) continue;  // below the site's horizons
+          segments.push_back({w.recv.origin[v], to, w.groups.site.ignored(w.recv, v)});
           segmentVertex.push_back(v);
         }
         if (traceBatch() > 0) return false;
@@ -1516,7 +1654,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         const Vec3 target = linkTarget(w.mesh, patch, k) + m * lift;
         factor[segments.size()] = pointKernel(w.recv.normal[v], m, target - w.recv.point[v]);
         if (!(factor[segments.size()] > 0)) continue;
-        segments.push_back({w.recv.origin[v], target, w.recv.ignored(v)});
+        segments.push_back({w.recv.origin[v], target, w.groups.site.ignored(w.recv, v)});
         segmentVertex.push_back(v);
       }
       traceSeen();
@@ -1672,8 +1810,13 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // And a link asks at least kClusterRays rays in all: a link of one vertex decided by one
             // ray let light through partly hidden clusters (Suzanne vertices of the Blender room up
             // to 5% too bright once groups opened to their vertices at horizons, below).
-            const uint32_t perReceiver = raysPerReceiver(g.count, factor, w.weight ? kLinkRays : kClusterRays);
-            const uint32_t count = g.count * perReceiver;
+            // Per site rather than per receiver (ReceiverGroups::siteCount): the receivers at one point,
+            // one per face of a flat-shaded crease, share its rays (issue 16's Blender room:
+            // 80.4 → 70.1 s, its Suzannes and spheres flat-shaded as Blender makes them).
+            const uint32_t sites = w.groups.siteCount[gi];
+            listSites(gi);
+            const uint32_t perReceiver = raysPerReceiver(sites, factor, w.weight ? kLinkRays : kClusterRays);
+            const uint32_t count = sites * perReceiver;
             // Rays k / per receiver to a hashed patch, for k = index(j), j < n, traced in batches;
             // with `stopWhenMixed` it stops at the first batch that shows some rays through and
             // some blocked, counting `prior` rays already traced (the pair is then opened whatever
@@ -1686,7 +1829,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 const uint32_t last = std::min(n, first + kRayBatch);
                 for (uint32_t j = first; j < last; ++j) {
                   const uint32_t k = index(j);
-                  const uint32_t from = g.first + k / per, v = R.order[from];
+                  const uint32_t from = siteAt(g, k / per), v = R.order[from];
                   uint32_t start = uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count);
                   if (w.lightSum && k % 2 == 0) start = drawnByLight(*w.lightSum, c, start);
                   uint32_t at = c.first + start, item = S.order[at];
@@ -1709,7 +1852,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                     ++through;
                     continue;
                   }
-                  segments.push_back({w.recv.origin[v], target, w.recv.ignored(v)});
+                  segments.push_back({w.recv.origin[v], target, w.groups.site.ignored(w.recv, v)});
                   segmentVertex.push_back(v);
                   batchRays.push_back({from, at, false});
                 }
@@ -1761,12 +1904,12 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             // (A pair the first walk called hidden was traced with that walk's rays per receiver,
             // which the light's weight may have raised since: it is asked the larger number.)
             const uint32_t hiddenRays = std::max(hiddenRaysPerReceiver(factor), perReceiver);
-            const uint32_t tracedPer = wasHidden ? raysPerReceiver(g.count, factor / lightWeight, kClusterRays) : perReceiver;
+            const uint32_t tracedPer = wasHidden ? raysPerReceiver(sites, factor / lightWeight, kClusterRays) : perReceiver;
             if (seen == 0 && asked == count && hiddenRays > tracedPer) {
               if (w.deferredHidden) {
                 (*w.deferredHidden)[task].push_back({gi, ci});
                 kept += sizeof(std::pair<uint32_t, uint32_t>);
-              } else if (trace(g.count * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) {
+              } else if (trace(sites * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) {
                 seen = 1;
               }
             }
@@ -1807,7 +1950,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         if (!byVertex && !sawLight && !mixed && ratio < kMaxRatio && uint64_t(g.count) * c.count <= kHiddenProofPairs &&
             largestPatch[ci] * lightWeight < w.accuracy * kPi * gap * gap && (proofs < kProofTrial || proved * kProofYield >= proofs)) {
           ++proofs;
-          if (hiddenFromAll(g, c)) {
+          if (hiddenFromAll(gi, c)) {
             ++proved;
             continue;
           }
@@ -2324,7 +2467,8 @@ size_t refineByLight(Hierarchical& h, const PatchMesh& mesh, const Occlusion& oc
           const LinkEstimate e = linkEstimate(g, S.nodes[link.source], 1);
           const bool redo = e.error * w >= options.accuracy ||
                             (link.visible < 1 ? e.factor * peak[link.source] >= options.accuracy * kFaintShare
-                                              : raysPerReceiver(g.count, e.factor * w, kLinkRays) > raysPerReceiver(g.count, e.factor, kClusterRays));
+                                              : raysPerReceiver(h.groups.siteCount[gi], e.factor * w, kLinkRays) >
+                                                    raysPerReceiver(h.groups.siteCount[gi], e.factor, kClusterRays));
           if (redo) {
             starts[task].push_back({gi, link.source});
             h.nodeError[gi] = std::max(0.0, h.nodeError[gi] - e.error);
@@ -3381,7 +3525,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       for (size_t v = 0; v < items.size(); ++v) items[v].part = traced.traced[v];
       solution.tracedUnknowns = size_t(std::count(traced.traced.begin(), traced.traced.end(), true));
     }
-    groups = receiverGroups(items, gathers);
+    groups = receiverGroups(items, gathers, receiverSites(mesh, occlusion, *recv, options.method));
   }
   // With a sky, its pass takes the first part of the progress: for the exact transport one more
   // pass over every pair; for the hierarchical one the walk of what patches seen from behind cover
