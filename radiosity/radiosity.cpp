@@ -701,18 +701,63 @@ std::vector<TreeItem> receiverItems(const PatchMesh& mesh, const Receivers& recv
 // by rounding. The own patches are instead tested here in double precision against the segment,
 // so a ray that really passes behind one of them (a grazing direction at a curved vertex, out
 // through the facet beside it) is still blocked.
+// The answers of one sight's rays, by their end: the receivers of a site (receiverSites) ask the
+// same rays of the same patch one after the other in a walk, from one origin.
+struct RayMemo {
+  uint32_t site = UINT32_MAX, patch = UINT32_MAX;
+  std::vector<std::pair<Vec3, bool>> answers;
+  size_t found = 0;  // rays answered from here, not traced
+  const bool* find(const Vec3& to) {
+    for (const auto& [end, seen] : answers)
+      if (end == to) {
+        ++found;
+        return &seen;
+      }
+    return nullptr;
+  }
+};
+
 struct Sight {
   const Occlusion& occlusion;
   const PatchMesh& mesh;
   Vec3 from;
   std::span<const uint32_t> ignore;  // skipped by Embree
   std::span<const uint32_t> own;     // tested exactly (empty for a patch's own centre)
+  RayMemo* memo = nullptr;           // answers already traced from here, and where to keep new ones
 
-  bool visible(const Vec3& to) const { return !crossesOwn(to) && occlusion.visible(from, to, ignore); }
-  // visible(to[k]) for every k (up to 16), the rays traced together.
+  bool visible(const Vec3& to) const {
+    if (const bool* seen = memo ? memo->find(to) : nullptr) return *seen;
+    const bool seen = !crossesOwn(to) && occlusion.visible(from, to, ignore);
+    if (memo) memo->answers.emplace_back(to, seen);
+    return seen;
+  }
+  // visible(to[k]) for every k, the rays not yet answered traced together, 16 at a time.
   void visibleAll(std::span<const Vec3> to, bool* seen) const {
-    occlusion.visibleFrom(from, to, ignore, seen);
-    for (size_t k = 0; k < to.size(); ++k) seen[k] = seen[k] && !crossesOwn(to[k]);
+    if (!memo) {
+      occlusion.visibleFrom(from, to, ignore, seen);
+      for (size_t k = 0; k < to.size(); ++k) seen[k] = seen[k] && !crossesOwn(to[k]);
+      return;
+    }
+    for (size_t first = 0; first < to.size(); first += 16) {
+      std::array<Vec3, 16> ask;
+      std::array<size_t, 16> at;
+      size_t asked = 0;
+      for (size_t k = first; k < std::min(to.size(), first + 16); ++k) {
+        if (const bool* known = memo->find(to[k])) {
+          seen[k] = *known;
+          continue;
+        }
+        ask[asked] = to[k];
+        at[asked++] = k;
+      }
+      if (asked == 0) continue;
+      std::array<bool, 16> got;
+      occlusion.visibleFrom(from, std::span(ask.data(), asked), ignore, got.data());
+      for (size_t e = 0; e < asked; ++e) {
+        seen[at[e]] = got[e] && !crossesOwn(ask[e]);
+        memo->answers.emplace_back(ask[e], seen[at[e]]);
+      }
+    }
   }
 
   bool crossesOwn(const Vec3& to) const {
@@ -730,6 +775,14 @@ struct Sight {
     }
     return false;
   }
+};
+
+// A site's rays (receiverSites), for a walk's (vertex, patch) pair: their origin, the patches they
+// test exactly, and the answers the site's last receiver got from this patch.
+struct SharedSight {
+  Vec3 from;
+  std::span<const uint32_t> own;
+  RayMemo* memo;
 };
 
 // A square piece of a source patch in its parameters: centre (s, t), half-width `half`; the whole
@@ -1038,7 +1091,8 @@ bool kernelReaches(const Vec3& p, const Vec3& nrm, const std::array<Vec3, 4>& q,
 // than `resolve.faint` gets one visibility ray (pairVisibility; 0: the exact transport's probes always).
 // Returns the rays it traced.
 size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const Receivers& recv, const KernelOptions& kernelOptions,
-                      size_t i, size_t source, std::vector<uint32_t>& ignore, Row& row, const PairSight& resolve) {
+                      size_t i, size_t source, std::vector<uint32_t>& ignore, Row& row, const PairSight& resolve,
+                      const SharedSight* shared = nullptr) {
   const Vec3 p = recv.point[i], nrm = recv.normal[i], a = recv.approach[i];
   const Patch& patch = mesh.patches[source];
   if (recv.isOwnTwin(i, uint32_t(source))) return 0;  // a side never sees its own twin
@@ -1049,9 +1103,12 @@ size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const R
   // A crease contribution sits at the receiver itself: nothing can come between.
   const bool touching = nearestQuadPoint(q, p).distance <= occlusion.epsilon();
   ignore.back() = uint32_t(source);
-  const Sight sight{occlusion, mesh, recv.origin[i], ignore, recv.own(i)};
+  const Sight sight = shared ? Sight{occlusion, mesh, shared->from, ignore, shared->own, shared->memo}
+                             : Sight{occlusion, mesh, recv.origin[i], ignore, recv.own(i)};
   size_t rays = 0;
+  const size_t found = shared ? shared->memo->found : 0;
   const auto vis = touching ? std::array<double, 4>{1, 1, 1, 1} : pairVisibility(sight, nrm, q, patch.normal, patch.area, resolve, rays);
+  if (shared) rays -= shared->memo->found - found;  // count the rays traced
   if (vis[0] == 0 && vis[1] == 0 && vis[2] == 0 && vis[3] == 0) return rays;
   const auto k = vertexQuadKernel(p, nrm, a, q, kernelOptions);
   for (int j = 0; j < 4; ++j) {
@@ -1534,7 +1591,7 @@ struct WalkEntry {
 
 std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::function<bool(uint32_t)>& gathers,
                                                 std::vector<double>& nodeError,
-                                                const std::function<size_t(uint32_t, uint32_t, std::vector<uint32_t>&)>& leaf,
+                                                const std::function<size_t(uint32_t, uint32_t, std::vector<uint32_t>&, const SharedSight*)>& leaf,
                                                 const std::function<void(const TreeNode&)>& taskDone, Ticker& ticker,
                                                 size_t& raysShot) {
   const ClusterTree &R = w.groups.tree, &S = w.source;
@@ -1571,6 +1628,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     // The current group's sites (ReceiverGroups::siteCount): the tree order index of each one's
     // first receiver in the group, listed only where some site has more than one there.
     std::vector<uint32_t> siteFirst;
+    RayMemo memo;  // the last leaf's rays, for its site-mates (RayMemo)
     auto listSites = [&](uint32_t gi) {
       const TreeNode& g = R.nodes[gi];
       siteFirst.clear();
@@ -1717,9 +1775,19 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         if (g.count == 1 && c.count == 1) {
           const uint32_t v = R.order[g.first];
           if (!gathers(v)) continue;
-          ignore.assign(w.recv.ignored(v).begin(), w.recv.ignored(v).end());
+          const uint32_t patch = w.patchOf[S.order[c.first]], site = w.groups.site.first[v];
+          const auto ignored = w.groups.site.ignored(w.recv, v);
+          ignore.assign(ignored.begin(), ignored.end());
           ignore.push_back(0);
-          kept += leaf(v, w.patchOf[S.order[c.first]], ignore);
+          if (w.groups.site.sight[site].patches.empty()) {
+            kept += leaf(v, patch, ignore, nullptr);
+            continue;
+          }
+          // A site's receivers reach a patch one after the other (their group opened for it):
+          // the rays go from the site's origin, answered once for all of them.
+          if (memo.site != site || memo.patch != patch) memo = {site, patch, {}, 0};
+          const SharedSight shared{w.recv.origin[site], w.groups.site.own(w.recv, v), &memo};
+          kept += leaf(v, patch, ignore, &shared);
           continue;
         }
         const double lightWeight = w.weight ? (*w.weight)[ci] : 1;
@@ -2027,8 +2095,9 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
 // NearPair appends what receiver v takes from
 // `patch` to `row` (the bilinear method's K_ij per corner vertex j, the constant method's F_vl) and
 // returns the rays it traced; CoverPair returns the share of v's hemisphere `patch` covers and
-// counts its rays. `ignore` is v's ignore list with a free last slot.
-using NearPair = std::function<size_t(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row)>;
+// counts its rays. `ignore` is v's ignore list with a free last slot; a walk passes, for a vertex
+// with site-mates (receiverSites), the site's rays instead of v's own (SharedSight).
+using NearPair = std::function<size_t(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, Row& row, const SharedSight* shared)>;
 using CoverPair = std::function<double(uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, size_t& rays)>;
 
 // Whether any of kBackGrid² fixed cosine-distributed rays from vertex v first meets a one-sided
@@ -2101,7 +2170,7 @@ std::vector<double> hierarchicalCover(const PatchMesh& mesh, const Occlusion& oc
   std::atomic<size_t> pairRays{0};
   const auto links = walkPairs(
       setup, [&](uint32_t v) { return !closure.rows[v]; }, nodeError,
-      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
+      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, const SharedSight*) {
         // A vertex whose rays saw no back takes none behind from its point and from the rays'
         // origin (and with backsOnly, coverPair takes none in front).
         const Patch& p = mesh.patches[patch];
@@ -2141,9 +2210,9 @@ void walkInto(Hierarchical& h, const WalkSetup& setup, const NearPair& nearPair,
   const ClusterTree& R = h.groups.tree;
   auto links = walkPairs(
       setup, [&](uint32_t v) { return h.groups.leafOf[v] != kNoLeaf; }, nodeError,
-      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore) {
+      [&](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore, const SharedSight* shared) {
         const size_t before = near[v].size();
-        pairRays.fetch_add(nearPair(v, patch, ignore, near[v]), std::memory_order_relaxed);
+        pairRays.fetch_add(nearPair(v, patch, ignore, near[v], shared), std::memory_order_relaxed);
         return (near[v].size() - before) * kNearEntryBytes;
       },
       [&](const TreeNode& task) {  // its vertices' rows are complete
@@ -2307,7 +2376,7 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       for (uint32_t p : near) {
         ignore.assign(ignored.begin(), ignored.end());
         ignore.push_back(0);
-        nearRays += nearPair(v, p, ignore, row);
+        nearRays += nearPair(v, p, ignore, row, nullptr);
       }
       rays.fetch_add(nearRays, std::memory_order_relaxed);
       double nearSum = 0;
@@ -2603,7 +2672,7 @@ NearPair nearPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Rece
                    double kernelTolerance, double accuracy) {
   const double tolerance = pairTolerance(method, kernelTolerance, accuracy), faint = accuracy * kFaintPairShare;
   if (method == Method::kConstant)
-    return [&mesh, &occlusion, tolerance](uint32_t k, uint32_t patch, std::vector<uint32_t>&, Row& row) {
+    return [&mesh, &occlusion, tolerance](uint32_t k, uint32_t patch, std::vector<uint32_t>&, Row& row, const SharedSight*) {
       size_t rays = 0;
       const double f = constantPairFactor(mesh, occlusion, k, patch, tolerance, rays);
       if (f > 0) row.emplace_back(patch, f);
@@ -2611,10 +2680,10 @@ NearPair nearPairs(const PatchMesh& mesh, const Occlusion& occlusion, const Rece
     };
   KernelOptions kernel;
   kernel.relativeTolerance = tolerance;
-  return [&mesh, &occlusion, &recv, kernel, faint, emission = meanEmission(mesh)](uint32_t v, uint32_t patch,
-                                                                                  std::vector<uint32_t>& ignore, Row& row) {
+  return [&mesh, &occlusion, &recv, kernel, faint, emission = meanEmission(mesh)](uint32_t v, uint32_t patch, std::vector<uint32_t>& ignore,
+                                                                                  Row& row, const SharedSight* shared) {
     const double weight = emissionWeight(mesh.patches[patch], emission);
-    return addPatchKernel(mesh, occlusion, recv, kernel, v, patch, ignore, row, {faint / weight, kVisibilityPiece / weight});
+    return addPatchKernel(mesh, occlusion, recv, kernel, v, patch, ignore, row, {faint / weight, kVisibilityPiece / weight}, shared);
   };
 }
 
@@ -2645,7 +2714,7 @@ Transport exactTransport(const PatchMesh& mesh, const Occlusion& occlusion, std:
     std::vector<uint32_t> ignore(recv->ignored(i).begin(), recv->ignored(i).end());
     ignore.push_back(0);  // the source patch, set per source
     for (size_t source = 0; source < mesh.patches.size(); ++source)
-      if (!closure->separates(i, source)) nearPair(uint32_t(i), uint32_t(source), ignore, row);
+      if (!closure->separates(i, source)) nearPair(uint32_t(i), uint32_t(source), ignore, row, nullptr);
     canonicalize(row);
   };
   return t;
