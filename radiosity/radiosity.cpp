@@ -1799,12 +1799,20 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // group keeps the bound, which on a curved surface is loose (tan(cone) × distance) and
         // would walk every pair of two curved objects down to single patches.
         Heights over = heightsOver(g, c);
+        // A site (receivers at one point, receiverSites) straddled by the cluster: how far it
+        // dips under the plane of the receiver it dips under most, if every receiver has some of
+        // it above its plane (each receiver is flat: see the horizon rule below).
+        const bool site = g.count > 1 && w.groups.siteCount[gi] == 1;
+        double siteDip = std::numeric_limits<double>::infinity();
         if (g.count > 1 && g.count <= kExactHorizons && g.coneSin > 0 && over.low < -over.rounding && over.high > over.rounding) {
           over = {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), 0};
+          bool everyOneAbove = true;
           for (uint32_t k = g.first; k < g.first + g.count; ++k) {
             const Heights h = heightsOver(R.nodes[w.groups.leafOf[R.order[k]]], c);
             over = {std::min(over.low, h.low), std::max(over.high, h.high), std::max(over.rounding, h.rounding)};
+            everyOneAbove = everyOneAbove && h.high > h.rounding;
           }
+          if (site && everyOneAbove) siteDip = -over.low;
         }
         if (over.high <= over.rounding) continue;  // on or below every receiver's horizon
         // Behind every patch's plane (strictly: a receiver in a patch's plane takes its crease limit):
@@ -1846,7 +1854,9 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         const bool flat = !w.cover && g.coneSin < 1e-6 && g.thickness <= 1e-9 * (g.radius + dist);
         // The light of patches with negative cosines, the cluster reaching `depth` past their zero.
         auto dipError = [&](double depth) { return spread * std::max(0.0, depth) / dist; };
-        const double horizonError = flat ? dipError(-over.low) : std::numeric_limits<double>::infinity();
+        // A site's receivers are each flat: the one it dips under most decides, as if it were opened
+        // to them (which walked each receiver of a flat-shaded crease down the cluster alone).
+        const double horizonError = flat ? dipError(-over.low) : std::isfinite(siteDip) ? dipError(siteDip) : std::numeric_limits<double>::infinity();
         const bool above = over.low >= -over.rounding || horizonError < w.accuracy * kHorizonShare;
         // Everything a link needs but its horizon, facing and visibility.
         const bool linkable = !mixed && g.coneSin < 1 && c.coneSin <= 1 && ratio < kMaxRatio && linkError < w.accuracy;
