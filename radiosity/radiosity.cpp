@@ -97,14 +97,14 @@ struct Receivers;
 
 // Receivers at one point share a site (receiverSites): per receiver its site's first receiver, and
 // per site of more than one receiver what its rays step over, the patches of all of them and their
-// twins (`patches`, the first `own` of them tested exactly, as a receiver's own are: Sight).
+// twins (`list`, the first `own` of them tested exactly, as a receiver's own are: Sight).
 struct ReceiverSites {
-  struct Sight {
-    std::vector<uint32_t> patches;
+  struct Patches {
+    std::vector<uint32_t> list;
     uint32_t own = 0;
   };
   std::vector<uint32_t> first;
-  std::vector<Sight> sight;  // per receiver; empty but at a shared site's first
+  std::vector<Patches> patches;  // per receiver; empty but at a shared site's first
   std::span<const uint32_t> ignored(const Receivers& recv, uint32_t v) const;
   std::span<const uint32_t> own(const Receivers& recv, uint32_t v) const;
 };
@@ -320,12 +320,12 @@ struct Receivers {
 };
 
 std::span<const uint32_t> ReceiverSites::ignored(const Receivers& recv, uint32_t v) const {
-  const Sight& s = sight[first[v]];
-  return s.patches.empty() ? recv.ignored(v) : std::span<const uint32_t>(s.patches);
+  const Patches& s = patches[first[v]];
+  return s.list.empty() ? recv.ignored(v) : std::span<const uint32_t>(s.list);
 }
 std::span<const uint32_t> ReceiverSites::own(const Receivers& recv, uint32_t v) const {
-  const Sight& s = sight[first[v]];
-  return s.patches.empty() ? recv.own(v) : std::span<const uint32_t>(s.patches.data(), s.own);
+  const Patches& s = patches[first[v]];
+  return s.list.empty() ? recv.own(v) : std::span<const uint32_t>(s.list.data(), s.own);
 }
 
 bool usesCorner(const Patch& p, int k) { return k < 3 || p.v[3] != p.v[2]; }
@@ -1314,8 +1314,8 @@ ReceiverSites receiverSites(const PatchMesh& mesh, const Occlusion& occlusion, c
     const double reach = length(oa - recv.point[a]) + length(ob - recv.point[b]), margin = 1e-3 * reach;
     near.clear();
     occlusion.patchesNear(recv.point[a], reach, near);
+    const auto ownA = recv.own(a), ownB = recv.own(b);
     for (uint32_t p : near) {
-      const auto ownA = recv.own(a), ownB = recv.own(b);
       if (std::find(ownA.begin(), ownA.end(), p) != ownA.end() || std::find(ownB.begin(), ownB.end(), p) != ownB.end()) continue;
       const Patch& patch = mesh.patches[p];
       const Vec3& q0 = mesh.positions[patch.v[0]];
@@ -1338,25 +1338,24 @@ ReceiverSites receiverSites(const PatchMesh& mesh, const Occlusion& occlusion, c
     if (site[v] == v) sites.push_back(v);
   }
   ReceiverSites out;
-  out.sight.resize(site.size());
+  out.patches.resize(site.size());
   for (uint32_t v = 0; v < site.size(); ++v) {
     if (site[v] == v) continue;
-    ReceiverSites::Sight& s = out.sight[site[v]];
-    if (s.patches.empty()) {
+    std::vector<uint32_t>& list = out.patches[site[v]].list;
+    if (list.empty()) {
       const auto own = recv.own(site[v]);
-      s.patches.assign(own.begin(), own.end());
+      list.assign(own.begin(), own.end());
     }
     const auto own = recv.own(v);
-    s.patches.insert(s.patches.end(), own.begin(), own.end());
+    list.insert(list.end(), own.begin(), own.end());
   }
-  for (uint32_t v = 0; v < site.size(); ++v) {
-    ReceiverSites::Sight& s = out.sight[v];
-    if (s.patches.empty()) continue;
-    std::sort(s.patches.begin(), s.patches.end());
-    s.patches.erase(std::unique(s.patches.begin(), s.patches.end()), s.patches.end());
-    s.own = uint32_t(s.patches.size());
+  for (ReceiverSites::Patches& s : out.patches) {
+    if (s.list.empty()) continue;
+    std::sort(s.list.begin(), s.list.end());
+    s.list.erase(std::unique(s.list.begin(), s.list.end()), s.list.end());
+    s.own = uint32_t(s.list.size());
     for (uint32_t k = 0; k < s.own; ++k)
-      if (mesh.patches[s.patches[k]].twin >= 0) s.patches.push_back(uint32_t(mesh.patches[s.patches[k]].twin));
+      if (mesh.patches[s.list[k]].twin >= 0) s.list.push_back(uint32_t(mesh.patches[s.list[k]].twin));
   }
   out.first = std::move(site);
   return out;
@@ -1779,13 +1778,17 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
           const auto ignored = w.groups.site.ignored(w.recv, v);
           ignore.assign(ignored.begin(), ignored.end());
           ignore.push_back(0);
-          if (w.groups.site.sight[site].patches.empty()) {
+          if (w.groups.site.patches[site].list.empty()) {
             kept += leaf(v, patch, ignore, nullptr);
             continue;
           }
           // A site's receivers reach a patch one after the other (their group opened for it):
           // the rays go from the site's origin, answered once for all of them.
-          if (memo.site != site || memo.patch != patch) memo = {site, patch, {}, 0};
+          if (memo.site != site || memo.patch != patch) {  // in place: its buffer is kept
+            memo.site = site;
+            memo.patch = patch;
+            memo.answers.clear();
+          }
           const SharedSight shared{w.recv.origin[site], w.groups.site.own(w.recv, v), &memo};
           kept += leaf(v, patch, ignore, &shared);
           continue;
