@@ -696,11 +696,6 @@ std::vector<TreeItem> receiverItems(const PatchMesh& mesh, const Receivers& recv
   return items;
 }
 
-// What a receiving point sees. Embree answers for every patch but the receiver's own and their
-// twins (`ignore`): a ray leaving a vertex grazes those, and in single precision it would hit them
-// by rounding. The own patches are instead tested here in double precision against the segment,
-// so a ray that really passes behind one of them (a grazing direction at a curved vertex, out
-// through the facet beside it) is still blocked.
 // The answers of one sight's rays, by their end: the receivers of a site (receiverSites) ask the
 // same rays of the same patch one after the other in a walk, from one origin.
 struct RayMemo {
@@ -717,6 +712,11 @@ struct RayMemo {
   }
 };
 
+// What a receiving point sees. Embree answers for every patch but the receiver's own and their
+// twins (`ignore`): a ray leaving a vertex grazes those, and in single precision it would hit them
+// by rounding. The own patches are instead tested here in double precision against the segment,
+// so a ray that really passes behind one of them (a grazing direction at a curved vertex, out
+// through the facet beside it) is still blocked.
 struct Sight {
   const Occlusion& occlusion;
   const PatchMesh& mesh;
@@ -1805,7 +1805,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
         // A site (receivers at one point, receiverSites) straddled by the cluster: how far it
         // dips under the plane of the receiver it dips under most, if every receiver has some of
         // it above its plane (each receiver is flat: see the horizon rule below).
-        const bool site = g.count > 1 && w.groups.siteCount[gi] == 1;
+        const bool oneSite = g.count > 1 && w.groups.siteCount[gi] == 1;
         double siteDip = std::numeric_limits<double>::infinity();
         if (g.count > 1 && g.count <= kExactHorizons && g.coneSin > 0 && over.low < -over.rounding && over.high > over.rounding) {
           over = {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), 0};
@@ -1815,7 +1815,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             over = {std::min(over.low, h.low), std::max(over.high, h.high), std::max(over.rounding, h.rounding)};
             everyOneAbove = everyOneAbove && h.high > h.rounding;
           }
-          if (site && everyOneAbove) siteDip = -over.low;
+          if (oneSite && everyOneAbove) siteDip = -over.low;
         }
         if (over.high <= over.rounding) continue;  // on or below every receiver's horizon
         // Behind every patch's plane (strictly: a receiver in a patch's plane takes its crease limit):
