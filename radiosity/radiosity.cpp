@@ -2347,6 +2347,9 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
     std::vector<uint32_t> near, ignore;
     std::array<Vec3, kRays> dirs;
     std::array<int64_t, kRays> hits;  // per ray, the patch facing it that it meets first (facingSide), or kOpen
+    std::array<Vec3, kRays> ends;     // the rays traced (not into an own patch), as firstHits takes them
+    std::array<int64_t, kRays> firstHits;
+    std::array<int, kRays> tracedAt;
     constexpr int64_t kOpen = -2;
     for (size_t c = range.begin(); c != range.end(); ++c) {
       const uint32_t v = candidates[c];
@@ -2354,16 +2357,22 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       const Sight sight{occlusion, mesh, from, recv.ignored(v), recv.own(v)};
       const auto [t, b] = tangentFrame(n);
       // The rays first: the share of them that meets a written side decides whether v is traced.
-      int seen = 0;
+      int seen = 0, traced = 0;
       for (int k = 0; k < kRays; ++k) {
         dirs[k] = malleyDirection<kTracedGrid>(k, t, b, n);
         const Vec3 end = from + dirs[k] * far;
+        hits[k] = kOpen;
         if (sight.crossesOwn(end)) {  // into one of its own patches: a near one (below)
           hits[k] = recv.own(v)[0];
           continue;
         }
-        const int64_t hit = occlusion.firstHit(from, end, sight.ignore);
-        hits[k] = hit < 0 ? kOpen : facingSide(mesh, hit, dirs[k]);
+        tracedAt[traced] = k;
+        ends[traced++] = end;
+      }
+      occlusion.firstHits(from, std::span(ends.data(), traced), sight.ignore, firstHits.data());
+      for (int e = 0; e < traced; ++e) {
+        const int k = tracedAt[e];
+        hits[k] = firstHits[e] < 0 ? kOpen : facingSide(mesh, firstHits[e], dirs[k]);
         seen += hits[k] >= 0 && !mesh.patches[hits[k]].backSide;
       }
       seenShare[c] = double(seen) / kRays;
@@ -3226,9 +3235,16 @@ Gathered gatherBounce(const BounceField& field, const Vec3& from, const Vec3& n)
   constexpr int S = 8, kRays = S * S;
   const double reach = 2 * field.occlusion.sceneSize();
   double sum = 0, squares = 0;
+  std::array<Vec3, kRays> dirs, ends;
+  std::array<int64_t, kRays> hits;
   for (int k = 0; k < kRays; ++k) {
-    const Vec3 d = malleyDirection<S>(k, t, b, n);
-    int64_t hit = field.occlusion.firstHit(from, from + d * reach);
+    dirs[k] = malleyDirection<S>(k, t, b, n);
+    ends[k] = from + dirs[k] * reach;
+  }
+  field.occlusion.firstHits(from, ends, {}, hits.data());
+  for (int k = 0; k < kRays; ++k) {
+    const Vec3& d = dirs[k];
+    int64_t hit = hits[k];
     if (hit < 0) continue;  // the sky is direct light
     hit = facingSide(mesh, hit, d);
     if (hit < 0) continue;

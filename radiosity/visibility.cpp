@@ -120,6 +120,36 @@ int64_t Occlusion::firstHit(const Vec3& from, const Vec3& to, std::span<const ui
   return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1 : int64_t(rh.hit.primID);
 }
 
+void Occlusion::firstHits(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore, int64_t* hit) const {
+  if (!impl_->packets) {
+    for (size_t k = 0; k < to.size(); ++k) hit[k] = firstHit(from, to[k], ignore);
+    return;
+  }
+  FilterContext fc{{}, ignore, &passes_};
+  rtcInitIntersectContext(&fc.context);
+  if (!ignore.empty() || passes_) fc.context.filter = skipIgnored;
+  for (size_t first = 0; first < to.size(); first += 8) {
+    alignas(32) RTCRayHit8 rh{};
+    alignas(32) int valid[8] = {};
+    const size_t count = std::min<size_t>(8, to.size() - first);
+    for (size_t k = 0; k < count; ++k) {
+      RTCRay one{};
+      hit[first + k] = -1;
+      if (!segmentRay(from, to[first + k], epsilon_, one)) continue;
+      valid[k] = -1;
+      rh.ray.org_x[k] = one.org_x; rh.ray.org_y[k] = one.org_y; rh.ray.org_z[k] = one.org_z;
+      rh.ray.dir_x[k] = one.dir_x; rh.ray.dir_y[k] = one.dir_y; rh.ray.dir_z[k] = one.dir_z;
+      rh.ray.tnear[k] = one.tnear;
+      rh.ray.tfar[k] = one.tfar;
+      rh.ray.mask[k] = one.mask;
+      rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(valid, impl_->scene, &fc.context, &rh);
+    for (size_t k = 0; k < count; ++k)
+      if (valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) hit[first + k] = int64_t(rh.hit.primID[k]);
+  }
+}
+
 void Occlusion::visibleFrom(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore,
                             bool* visible) const {
   // Segments sharing their origin and ignore list, handed to visibleEach 16 at a time.

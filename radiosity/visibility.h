@@ -41,6 +41,9 @@ class Occlusion {
   // The patch whose surface the segment from `from` to `to` meets first (strictly between, as in
   // visible(); ignored and cut-out patches stepped over), or -1.
   int64_t firstHit(const Vec3& from, const Vec3& to, std::span<const uint32_t> ignore = {}) const;
+  // firstHit(from, to[k], ignore) for every k, in packets of 8 where Embree has them (the rays of
+  // a hemisphere gathered from one point).
+  void firstHits(const Vec3& from, std::span<const Vec3> to, std::span<const uint32_t> ignore, int64_t* hit) const;
   // The patches whose bounds come within `radius` of `p` (appended to `out`; a superset of those
   // within that distance: the caller measures them).
   void patchesNear(const Vec3& p, double radius, std::vector<uint32_t>& out) const;
