@@ -19,20 +19,22 @@ table_start() {
   echo "$rule"
 }
 
-# fit_growth ROWS PATCH_COLUMN TIME_COLUMN MIN_PATCHES: the exponent k of time ∝ patches^k, a
+# fit_growth ROWS PATCH_COLUMN TIME_COLUMN MIN_PATCHES [NAME]: the exponent k of time ∝ patches^k, a
 # least-squares line through log-log points, from the Markdown table rows in ROWS (columns counted
-# as `split("|")` does: the first cell is column 1) with at least MIN_PATCHES patches.
+# as `split("|")` does: the first cell is column 1) with at least MIN_PATCHES patches. NAME (default
+# "patches") names what the size column counts.
 fit_growth() {
   [ -f "$1" ] || return 0
   python3 - "$@" <<'PY'
 import math, sys
 path, pc, tc, least = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+name = sys.argv[5] if len(sys.argv) > 5 else "patches"
 rows = [line.split("|") for line in open(path)]
 pts = [(int(r[pc]), float(r[tc])) for r in rows if int(r[pc]) >= least]
 if len(pts) >= 2:
     xs = [math.log(p) for p, _ in pts]; ys = [math.log(t) for _, t in pts]
     mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
     k = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
-    print(f"\nfitted growth of wall time from {pts[0][0]} to {pts[-1][0]} patches: n^{k:.2f}")
+    print(f"\nfitted growth of wall time from {pts[0][0]} to {pts[-1][0]} {name}: n^{k:.2f}")
 PY
 }

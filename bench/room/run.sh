@@ -2,8 +2,10 @@
 # Issue 16's Blender room at growing sizes, up to about a million triangles: bench/room/make_room.py
 # builds each room with Blender (Suzanne subdivision LEVEL, sphere SEGMENTS; the first size is the
 # issue's room, 15.8k triangles), then radbake bakes it with the default (hierarchical) transport.
-# Prints a Markdown table (triangles, patches, wall time, peak memory, near entries, far links,
-# cluster rays, the (vertex, patch) pairs' rays) and the exponent of time against patches. A size whose bake passes CASE_LIMIT
+# Prints a Markdown table (triangles, patches, unknowns, wall time, peak memory, near entries, far
+# links, cluster rays, the (vertex, patch) pairs' rays) and the exponent of time against patches and
+# against unknowns (the receivers: a flat-shaded vertex is one per face around it, so the curved
+# objects hold about four per patch and the walls one; their share grows with the level). A size whose bake passes CASE_LIMIT
 # seconds (default 1800) is stopped and reported as such; the larger sizes are then skipped.
 #
 #   bench/room/run.sh [LEVEL:SEGMENTS ...]   default 1:64 2:128 3:256 4:512 (16k, 64k, 256k, 1.03M triangles)
@@ -15,7 +17,7 @@ bin=build/plugin/cli/radbake
 sizes=("$@"); [ ${#sizes[@]} -gt 0 ] || sizes=(1:64 2:128 3:256 4:512)
 limit=${CASE_LIMIT:-1800}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-table_start "Suzanne level, sphere segments" triangles patches "wall s" "peak MiB" "near entries" "far links" "cluster rays" "pair rays"
+table_start "Suzanne level, sphere segments" triangles patches unknowns "wall s" "peak MiB" "near entries" "far links" "cluster rays" "pair rays"
 for size in "${sizes[@]}"; do
   level=${size%%:*} segments=${size##*:}
   blender -b --factory-startup --python-exit-code 1 --python bench/room/make_room.py -- "$tmp/room.glb" "$level" "$segments" \
@@ -23,7 +25,7 @@ for size in "${sizes[@]}"; do
   triangles=$("$bin" info "$tmp/room.glb" | sed -n 's/.*instances, \([0-9]*\) triangles.*/\1/p')
   if ! /usr/bin/time -f "%e %M" -o "$tmp/time" timeout "$limit" "$bin" bake "$tmp/room.glb" -o "$tmp/out.glb" \
       --report "$tmp/report.json" -q; then
-    echo "| $level, $segments | $triangles | – | not finished in $limit s | – | – | – | – | – |"
+    echo "| $level, $segments | $triangles | – | – | not finished in $limit s | – | – | – | – | – |"
     break
   fi
   python3 - "$level" "$segments" "$triangles" "$tmp" <<'PY' | tee -a "$tmp/rows"
@@ -32,8 +34,9 @@ level, segments, triangles, tmp = sys.argv[1:]
 wall, kib = open(f"{tmp}/time").read().split()
 r = json.load(open(f"{tmp}/report.json"))
 s = r["solver"]
-print(f"| {level}, {segments} | {triangles} | {r['counts']['patches']} | {float(wall):.1f} | {int(kib) // 1024} | "
+print(f"| {level}, {segments} | {triangles} | {r['counts']['patches']} | {r['counts']['vertices']} | {float(wall):.1f} | {int(kib) // 1024} | "
       f"{s['matrixEntries']} | {s['farLinks']} | {s['clusterRays']} | {s['nearRays']} |")
 PY
 done
-fit_growth "$tmp/rows" 3 4 0
+fit_growth "$tmp/rows" 3 5 0 patches
+fit_growth "$tmp/rows" 4 5 0 unknowns
