@@ -15,6 +15,7 @@
 
 #include "radiosity/form_factor.h"
 #include "radiosity/radiosity.h"
+#include "radiosity/visibility.h"
 
 namespace fs = std::filesystem;
 using namespace radbake;
@@ -411,6 +412,46 @@ TEST(Closure, AnUnweldedBoxIsClosedAtAnyRate) {
       EXPECT_LT(worst, 1e-5) << "N = " << n << (transport == TransportMode::kExact ? ", exact" : ", hierarchical");
     }
   }
+}
+
+TEST(Visibility, RaysFromOnePointMeetWhatEachRayAloneMeets) {
+  // Occlusion::firstHits traces rays from one point in packets; each must meet what firstHit meets
+  // alone: inside a closed room with a box standing in it every ray meets something, and a patch
+  // in the ignore list is stepped over (the ray meets what lies behind it).
+  Scene scene;
+  scene.materials = {material("room", 0.5, 0)};
+  scene.primitives.push_back(boxPrimitive({0, 0, 0}, {2, 2, 2}, true, 0));
+  scene.primitives.push_back(boxPrimitive({1.2, 1.2, 0}, {1.6, 1.6, 0.4}, false, 0));
+  for (int p = 0; p < 2; ++p) scene.primitives[p].primitive = p;
+  TessellateOptions t;
+  t.subdivide = 4;
+  const PatchMesh mesh = tessellate(scene, t);
+  const Occlusion occlusion(mesh);
+  const Vec3 from{0.5, 0.5, 0.3};
+  std::vector<Vec3> to;  // 21 directions (not a multiple of 8), far past the walls
+  for (int k = 0; k < 21; ++k) {
+    const double a = 0.3 * k, z = -0.9 + 0.09 * k;
+    to.push_back(from + Vec3{std::cos(a), std::sin(a), z} * 10.0);
+  }
+  to.push_back(from + Vec3{1, 1, -0.25} * 10.0);  // at the box standing on the floor
+  std::vector<int64_t> hits(to.size(), -7);
+  occlusion.firstHits(from, to, {}, hits.data());
+  std::set<int64_t> met;
+  for (size_t k = 0; k < to.size(); ++k) {
+    EXPECT_EQ(hits[k], occlusion.firstHit(from, to[k])) << "ray " << k;
+    EXPECT_GE(hits[k], 0) << "ray " << k << " left a closed room";
+    met.insert(hits[k]);
+  }
+  EXPECT_GT(met.size(), 10u);
+  // The box's patch in the way of the last ray, ignored: that ray now meets the room behind it.
+  const uint32_t box = uint32_t(hits.back());
+  EXPECT_EQ(mesh.patches[box].primitive, 1);
+  const std::vector<uint32_t> ignore{box};
+  std::vector<int64_t> past(to.size(), -7);
+  occlusion.firstHits(from, to, ignore, past.data());
+  for (size_t k = 0; k < to.size(); ++k) EXPECT_EQ(past[k], occlusion.firstHit(from, to[k], ignore)) << "ray " << k;
+  EXPECT_NE(past.back(), hits.back());
+  EXPECT_GE(past.back(), 0);
 }
 
 TEST(Visibility, NoLightLeaksOutOfAClosedBox) {
