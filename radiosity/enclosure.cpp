@@ -69,7 +69,11 @@ Enclosures findEnclosures(const PatchMesh& mesh) {
     const Vec3& p = mesh.positions[v];
     return PointKey{p.x, p.y, p.z};
   };
-  std::map<EdgeKey, std::vector<EdgeUse>> edges;
+  // Every edge use, sorted by edge (stably: an edge's uses in patch order), so that each edge's
+  // uses lie together: the order a map from edge to uses gave, which took 31 ms where this takes
+  // 17 (issue 16's room, each of refinement's 31 rounds finds the enclosures of its mesh).
+  std::vector<std::pair<EdgeKey, EdgeUse>> uses;
+  uses.reserve(4 * n);
   for (size_t i = 0; i < n; ++i) {
     const Patch& p = mesh.patches[i];
     const int c = cornerCount(p);
@@ -77,18 +81,22 @@ Enclosures findEnclosures(const PatchMesh& mesh) {
       const PointKey a = key(p.v[k]), b = key(p.v[(k + 1) % c]);
       if (!(a < b) && !(b < a)) continue;
       const bool forward = a < b;
-      edges[{forward ? a : b, forward ? b : a, p.backSide}].push_back({uint32_t(i), forward});
+      uses.push_back({{forward ? a : b, forward ? b : a, p.backSide}, {uint32_t(i), forward}});
     }
   }
+  std::stable_sort(uses.begin(), uses.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   // Components over shared edges; a component is closed when each of its edges has exactly two
   // uses running in opposite directions.
   std::vector<size_t> parent(n);
   std::iota(parent.begin(), parent.end(), size_t(0));
   std::vector<bool> open(n, false);
-  for (const auto& [edge, uses] : edges) {
-    for (size_t u = 1; u < uses.size(); ++u) parent[find(parent, uses[u].patch)] = find(parent, uses[0].patch);
-    if (uses.size() != 2 || uses[0].forward == uses[1].forward)
-      for (const EdgeUse& u : uses) open[u.patch] = true;
+  for (size_t first = 0, last = 0; first < uses.size(); first = last) {
+    for (last = first + 1; last < uses.size() && !(uses[first].first < uses[last].first); ++last) {
+    }
+    const EdgeUse& one = uses[first].second;
+    for (size_t u = first + 1; u < last; ++u) parent[find(parent, uses[u].second.patch)] = find(parent, one.patch);
+    if (last - first != 2 || one.forward == uses[first + 1].second.forward)
+      for (size_t u = first; u < last; ++u) open[uses[u].second.patch] = true;
   }
   std::map<size_t, std::vector<uint32_t>> components;
   for (size_t i = 0; i < n; ++i) components[find(parent, i)].push_back(uint32_t(i));
