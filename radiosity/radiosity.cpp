@@ -2361,7 +2361,6 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
       for (int k = 0; k < kRays; ++k) {
         dirs[k] = malleyDirection<kTracedGrid>(k, t, b, n);
         const Vec3 end = from + dirs[k] * far;
-        hits[k] = kOpen;
         if (sight.crossesOwn(end)) {  // into one of its own patches: a near one (below)
           hits[k] = recv.own(v)[0];
           continue;

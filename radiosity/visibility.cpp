@@ -48,6 +48,15 @@ bool segmentRay(const Vec3& from, const Vec3& to, double epsilon, RTCRay& ray) {
   return true;
 }
 
+// Puts one ray into lane k of a packet.
+void setLane(RTCRay8& packet, size_t k, const RTCRay& one) {
+  packet.org_x[k] = one.org_x; packet.org_y[k] = one.org_y; packet.org_z[k] = one.org_z;
+  packet.dir_x[k] = one.dir_x; packet.dir_y[k] = one.dir_y; packet.dir_z[k] = one.dir_z;
+  packet.tnear[k] = one.tnear;
+  packet.tfar[k] = one.tfar;
+  packet.mask[k] = one.mask;
+}
+
 }  // namespace
 
 struct Occlusion::Impl {
@@ -137,11 +146,7 @@ void Occlusion::firstHits(const Vec3& from, std::span<const Vec3> to, std::span<
       hit[first + k] = -1;
       if (!segmentRay(from, to[first + k], epsilon_, one)) continue;
       valid[k] = -1;
-      rh.ray.org_x[k] = one.org_x; rh.ray.org_y[k] = one.org_y; rh.ray.org_z[k] = one.org_z;
-      rh.ray.dir_x[k] = one.dir_x; rh.ray.dir_y[k] = one.dir_y; rh.ray.dir_z[k] = one.dir_z;
-      rh.ray.tnear[k] = one.tnear;
-      rh.ray.tfar[k] = one.tfar;
-      rh.ray.mask[k] = one.mask;
+      setLane(rh.ray, k, one);
       rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
     }
     rtcIntersect8(valid, impl_->scene, &fc.context, &rh);
@@ -176,19 +181,13 @@ void Occlusion::visibleEach(std::span<const Segment> segments, bool* visible) co
     alignas(32) int valid[8] = {};
     const size_t count = std::min<size_t>(8, segments.size() - first);
     for (size_t k = 0; k < count; ++k) {
-      const Segment& s = segments[first + k];
-      const Vec3 d = s.to - s.from;
-      const double dist = length(d);
-      if (dist <= 2 * epsilon_) {
+      RTCRay one{};
+      if (!segmentRay(segments[first + k].from, segments[first + k].to, epsilon_, one)) {
         visible[first + k] = true;
         continue;
       }
       valid[k] = -1;
-      ray.org_x[k] = float(s.from.x); ray.org_y[k] = float(s.from.y); ray.org_z[k] = float(s.from.z);
-      ray.dir_x[k] = float(d.x / dist); ray.dir_y[k] = float(d.y / dist); ray.dir_z[k] = float(d.z / dist);
-      ray.tnear[k] = float(epsilon_);
-      ray.tfar[k] = float(dist - epsilon_);
-      ray.mask[k] = 0xFFFFFFFF;
+      setLane(ray, k, one);
       ray.id[k] = unsigned(first + k);  // the filter finds the segment's ignore list by it
     }
     rtcOccluded8(valid, impl_->scene, &fc.context, &ray);
