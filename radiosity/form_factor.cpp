@@ -76,8 +76,13 @@ bool makePolygon(const Vec3* pts, int count, Polygon& out) {
   for (size_t i = 0; i < out.v.size(); ++i) {
     area += cross(out.v[i] - c, out.v[(i + 1) % out.v.size()] - c);
   }
+  // |area| is twice the polygon's area, so |area| / size is about its width. A polygon narrower
+  // than kRoundingSize of its coordinates' magnitude is a line to rounding, however long: its
+  // normal is noise. Contact cuts left such triangles in a 2CylinderEngine part (corners in a line,
+  // 8 long, 1.6e-14 wide at x = 300): their cells' horizons were noise, and one receiver touching
+  // one spent 4.3 s in its quadrature for a kernel of 1e-11.
   const double len = length(area);
-  if (!(len > 1e-24 * out.size * out.size)) return false;
+  if (!(len > 1e-24 * out.size * out.size) || !(len > kRoundingSize * magnitude(bounds) * out.size)) return false;
   out.normal = area / len;
   return true;
 }

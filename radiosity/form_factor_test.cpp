@@ -433,6 +433,34 @@ TEST(VertexQuadKernel, APatchAtTheRoundingOfItsCoordinatesSendsNothing) {
   EXPECT_GT(std::max(pointPolygonFactor(centre + x, Vec3{-1, 0, 0}, big, 3), pointPolygonFactor(centre - x, Vec3{1, 0, 0}, big, 3)), 0.01);
 }
 
+// A triangle whose corners lie on a line to rounding (8 long, about 1e-14 wide at x = 300: a
+// line turned off the axes in double precision), as contact cuts left in a 2CylinderEngine part,
+// with a receiver at its middle corner: no area, and a normal of noise. It sends nothing (a
+// receiver touching such a triangle spent 4.3 s in its quadrature for a kernel of 1e-11). The same
+// triangle 1e-5 wide is a sliver, and geometry.
+TEST(VertexQuadKernel, ATriangleOnALineToRoundingSendsNothing) {
+  const Vec3 axis = normalize(Vec3{1, 2, 3}), shift{300, -40, 70};
+  auto place = [&](const Vec3& x) {
+    const double c = std::cos(0.7), s = std::sin(0.7);
+    return x * c + cross(axis, x) * s + axis * (dot(axis, x) * (1 - c)) + shift;
+  };
+  const Vec3 side = normalize(cross(axis, Vec3{1, 0, 0}));
+  const Vec3 n = normalize(cross(place({1, 0, 0}) - place({0, 0, 0}), side));
+  for (const double width : {0.0, 1e-5}) {
+    const Vec3 a = place({0, 0, 0}), b = place({2.22, width, 0}), c = place({7.94, 0, 0});
+    const auto k = vertexQuadKernel(b, n, someTangent(n), {a, b, c, c});
+    const Vec3 tri[3] = {a, b, c};
+    if (width == 0) {
+      for (int j = 0; j < 4; ++j) EXPECT_EQ(k[j], 0) << "K_" << j;
+      EXPECT_EQ(pointPolygonFactor(b + n * 1e-3, n, tri, 3), 0);
+    } else {
+      // A receiver 1e-7 in front of its centroid sees some of it (from whichever side its front is).
+      const Vec3 m = normalize(cross(b - a, c - a)), centre = (a + b + c) / 3;
+      EXPECT_GT(std::max(pointPolygonFactor(centre + m * 1e-7, -m, tri, 3), pointPolygonFactor(centre - m * 1e-7, m, tri, 3)), 0.01);
+    }
+  }
+}
+
 // Accuracy of the individual K_j at the default tolerance against the same
 // kernel run at 1e-13, over every reference case (far, near, clipped).
 TEST(VertexQuadKernel, DefaultToleranceMeetsClaim) {
