@@ -2520,12 +2520,12 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
   h.bright = std::move(bright);
   MemoryBudget memory;  // (the traced rows count against it as the walk's rows do)
   memory.limit = options.transportMemoryBytes;
-  size_t tracedEntries = 0;
+  size_t entries = 0;  // the rows' entries taken before the walk: traced rows, pressed patches
   for (size_t v = 0; v < traced.rows.size(); ++v) {  // (none for the constant method)
     if (traced.rows[v].empty()) continue;
     h.near[v].resize(traced.rows[v].size());
     for (size_t e = 0; e < traced.rows[v].size(); ++e) h.near[v][e] = {traced.rows[v][e].first, float(traced.rows[v][e].second)};
-    tracedEntries += traced.rows[v].size();
+    entries += traced.rows[v].size();
     Row().swap(traced.rows[v]);
   }
   h.pressed = pressedPatches(mesh, occlusion, recv, h.groups, h.traced);
@@ -2540,9 +2540,9 @@ Hierarchical hierarchicalTransport(const PatchMesh& mesh, const Occlusion& occlu
     }
     canonicalize(row);
     for (const auto& [col, val] : row) h.near[v].emplace_back(col, float(val));
-    tracedEntries += row.size();
+    entries += row.size();
   }
-  memory.add(tracedEntries * sizeof(h.near[0][0]));
+  memory.add(entries * sizeof(h.near[0][0]));
   h.nearRays += traced.rays;
   h.deferredHidden.resize(h.groups.tasks.size());
   WalkSetup setup{mesh, occlusion, recv, h.groups, h.source, all, false, options.accuracy, memory};
