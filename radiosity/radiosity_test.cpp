@@ -1444,6 +1444,45 @@ TEST(Contact, AFacePressedOnAnotherGathersAsInTheExactTransport) {
   EXPECT_LT(worst, 0.03) << "a pressed vertex off exact by " << worst << " of the mean";
 }
 
+// A floor under a one-sided canopy that faces the sky (the floor sees its back, which covers its
+// sky and sends nothing), a double-sided plate between them casting a shadow on it: the canopy's
+// clusters at the plate's silhouette are faint and partly hidden, and each floor vertex takes them
+// with the share its rays see. Hierarchical against exact under a sky of 1: the floor beneath the
+// canopy within the bounds. Until the twenty-seventh session the share of a cluster seen
+// from behind was 0 (its cosines were taken on its front) and the cluster was dropped, so the floor
+// saw sky through it: 1.1% RMS and 2.8% at worst of the mean, too bright (now 0.17% and 0.57%).
+TEST(Sky, AFloorSeesTheBackOfACanopyBehindAPlateAsInTheExactTransport) {
+  Scene scene;
+  scene.materials = {material("floor", 0.5, 0), material("canopy", 0.5, 0), material("plate", 0.5, 0, true)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
+  scene.primitives.push_back(quadPrimitive({Vec3{-1, 1, -1}, {-1, 1, 1}, {1, 1, 1}, {1, 1, -1}}, 1));
+  scene.primitives.push_back(quadPrimitive({Vec3{-0.25, 0.5, -0.6}, {-0.25, 0.5, 0.6}, {0.25, 0.5, 0.6}, {0.25, 0.5, -0.6}}, 2));
+  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+  TessellateOptions t;
+  t.maxEdgeLength = 0.1;
+  const PatchMesh mesh = tessellate(scene, t);
+  RadiosityOptions o;
+  o.sky = {1, 1, 1};
+  o.transport = TransportMode::kExact;
+  const Solution exact = solveRadiosity(scene, mesh, o);
+  o.transport = TransportMode::kHierarchical;
+  const Solution hier = solveRadiosity(scene, mesh, o);
+  double worst = 0, mean = 0, squares = 0;
+  int under = 0;
+  for (size_t v = 0; v < mesh.positions.size(); ++v) mean += exact.vertexRadiance[v].x / double(mesh.positions.size());
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Vec3& x = mesh.positions[v];
+    if (!(x.y < 0.25 && std::abs(x.x) < 1 && std::abs(x.z) < 1)) continue;  // the floor under the canopy
+    ++under;
+    const double d = (hier.vertexRadiance[v].x - exact.vertexRadiance[v].x) / mean;
+    squares += d * d;
+    worst = std::max(worst, std::abs(d));
+  }
+  ASSERT_GT(under, 100);
+  EXPECT_LT(std::sqrt(squares / under), 0.005);
+  EXPECT_LT(worst, 0.03);
+}
+
 // A floor vertex within rounding of the foot of a box's wall (Blender writes single precision: a
 // cube on a grid meets it 1.2e-7 apart) takes the light of one exactly at it, from the side in
 // front of the wall. The floor is either split along the foot (two quads, x = 1 + off) or one quad
