@@ -1078,14 +1078,35 @@ std::array<double, 4> pairVisibility(const Sight& sight, const Vec3& n, const st
   return visibleFraction(sight, n, q, qNormal, resolve.piece, rays);
 }
 
+// Antiparallel to this: a face pressed on another (their normals opposite to rounding).
+constexpr double kPressedCos = -(1 - 1e-6);
+
 // Whether a vertex at p (receiving normal nrm) takes anything from the quad q (normal m) in K: some
 // corner above its horizon, and p not behind q's plane by more than `epsilon` (a vertex of a curved
 // surface off its own non-planar patch's plane, whose limit would be ill-conditioned). The sky
 // pass's cover takes the same rejections (skyCover).
-bool kernelReaches(const Vec3& p, const Vec3& nrm, const std::array<Vec3, 4>& q, const Vec3& m, double epsilon) {
-  bool above = false;
-  for (const Vec3& c : q) above |= dot(nrm, c - p) > 0;
-  return above && !(dot(m, p - q[0]) < -epsilon);
+// A corner above the horizon by no more than `epsilon`, the rest of the polygon further below, is
+// either a face hanging down from an edge the vertex lies on (a part's side below another's top
+// face) lifted by rounding, or a face pressed on one of the vertex's own (antiparallel to it, in
+// its plane) that a smooth receiving normal tilts partly under the horizon. The kernel, which takes
+// anything within `epsilon` of the vertex as touching it, gave the hanging face's wedge its whole
+// crease limit (a 2CylinderEngine vertex took 0.80 of its hemisphere from three piston faces
+// hanging below it, in both transports): it sends nothing. The pressed face keeps its in-plane
+// limit (a sealed contact: dark). A polygon within `epsilon` of the plane throughout keeps the
+// rounding's verdict.
+bool kernelReaches(const Vec3& p, const Vec3& nrm, const std::array<Vec3, 4>& q, const Vec3& m, double epsilon,
+                   const PatchMesh& mesh, std::span<const uint32_t> own) {
+  if (dot(m, p - q[0]) < -epsilon) return false;
+  bool above = false, clear = false, below = false;
+  for (const Vec3& c : q) {
+    const double h = dot(nrm, c - p);
+    above |= h > 0;
+    clear |= h > epsilon;
+    below |= h < -epsilon;
+  }
+  if (clear || (above && !below)) return true;
+  if (!above) return false;
+  return std::any_of(own.begin(), own.end(), [&](uint32_t k) { return dot(mesh.patches[k].normal, m) < kPressedCos; });
 }
 
 // K_ij of one source patch for vertex i (the exact kernel times its visible fraction), appended to
@@ -1099,7 +1120,7 @@ size_t addPatchKernel(const PatchMesh& mesh, const Occlusion& occlusion, const R
   const Patch& patch = mesh.patches[source];
   if (recv.isOwnTwin(i, uint32_t(source))) return 0;  // a side never sees its own twin
   const auto q = corners(mesh, patch);
-  if (!kernelReaches(p, nrm, q, patch.normal, occlusion.epsilon())) return 0;
+  if (!kernelReaches(p, nrm, q, patch.normal, occlusion.epsilon(), mesh, recv.own(i))) return 0;
   // Visibility before the kernel: a hidden pair costs its probe rays and no kernel (in a room
   // of self-occluding Suzannes, 39.5M of 48.7M kernels were computed for hidden pairs).
   // A crease contribution sits at the receiver itself: nothing can come between.
@@ -2104,7 +2125,7 @@ double skyCover(const PatchMesh& mesh, const Occlusion& occlusion, const Receive
     std::swap(q[1], q[3]);         // vertex moves but stays consecutive, which the factor accepts)
     normal = -normal;
   }
-  if (!kernelReaches(p, nrm, q, normal, occlusion.epsilon())) return 0;
+  if (!kernelReaches(p, nrm, q, normal, occlusion.epsilon(), mesh, own)) return 0;
   auto sum = [](const std::array<double, 4>& k, const std::array<double, 4>& weight) {
     return k[0] * weight[0] + k[1] * weight[1] + k[2] * weight[2] + k[3] * weight[3];
   };

@@ -1483,6 +1483,39 @@ TEST(Sky, AFloorSeesTheBackOfACanopyBehindAPlateAsInTheExactTransport) {
   EXPECT_LT(worst, 0.03);
 }
 
+// A face hanging below a floor from a line of its vertices (the side of a part whose top is level
+// with another's face, as a CAD assembly's are), its top edge lifted above the floor by less than
+// rounding: nothing stands above the floor, so under a sky of 1 every floor vertex is ρ × 1, in
+// both transports. The kernel takes what lies within epsilon of a vertex as touching it, and gave
+// the hanging face's wedge its crease limit: the floor along the line was 0.25 (0.375 at its ends)
+// instead of 0.5 (a 2CylinderEngine vertex took 0.80 of its hemisphere from piston faces hanging
+// below it).
+TEST(Contact, AFaceHangingBelowAFloorCoversNothingOfIt) {
+  Scene scene;
+  scene.materials = {material("floor", 0.5, 0), material("side", 0.5, 0)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
+  const double lift = 1e-9;  // below the occlusion epsilon of a 4 m scene
+  scene.primitives.push_back(quadPrimitive({Vec3{0, lift, -1}, {0, -1, -1}, {0, -1, 1}, {0, lift, 1}}, 1));
+  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+  TessellateOptions t;
+  t.maxEdgeLength = 0.5;
+  const PatchMesh mesh = tessellate(scene, t);
+  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+    RadiosityOptions o;
+    o.sky = {1, 1, 1};
+    o.transport = transport;
+    const Solution s = solveRadiosity(scene, mesh, o);
+    int online = 0;
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      const Vec3& x = mesh.positions[v];
+      if (!(mesh.normals[v].y > 0.5)) continue;  // the floor
+      online += std::abs(x.x) < 1e-6 && std::abs(x.z) <= 1;
+      EXPECT_NEAR(s.vertexRadiance[v].x, 0.5, 1e-6) << "floor vertex at " << x.x << " " << x.z << ", transport " << int(transport);
+    }
+    EXPECT_GE(online, 5) << "no floor vertex on the hanging face's line: the scene no longer tests it";
+  }
+}
+
 // A floor vertex within rounding of the foot of a box's wall (Blender writes single precision: a
 // cube on a grid meets it 1.2e-7 apart) takes the light of one exactly at it, from the side in
 // front of the wall. The floor is either split along the foot (two quads, x = 1 + off) or one quad
