@@ -5,7 +5,9 @@ triangles;
 the other nodes lose their mesh. Used to measure how the bake scales on the engine's own geometry
 at sizes below its full (N = 1) patch count.
 
-Usage: engine_subset.py IN.glb OUT.glb TARGET_TRIANGLES
+Usage: engine_subset.py IN.glb OUT.glb TARGET_TRIANGLES [--tail]
+With --tail the instances are taken from the end of that order instead (the 2CylinderEngine's
+piston and the bodies around it, another part of the assembly than the head's).
 Prints the number of triangle instances kept."""
 import json
 import struct
@@ -41,6 +43,7 @@ def write_glb(path, gltf, binary):
 
 def main():
     src, dst, target = sys.argv[1], sys.argv[2], int(sys.argv[3])
+    tail = sys.argv[4:] == ["--tail"]
     gltf, binary = read_glb(src)
     triangles = []
     for mesh in gltf["meshes"]:
@@ -58,7 +61,7 @@ def main():
     for root in scene["nodes"]:
         visit(root)
     kept = 0
-    for n in order:
+    for n in reversed(order) if tail else order:
         node = gltf["nodes"][n]
         if "mesh" not in node:
             continue
