@@ -1728,7 +1728,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
     // A cover walk's patch seen from behind covers as its reversed polygon: its cosine is taken on
     // the side v sees, and its ray ends lifted off that side. (Until the twenty-seventh session
     // every back sent a zero weight, so a faint, partly hidden cluster of backs had a share of 0
-    // and was dropped: on the 23k-triangle engine part the rims of body_6, pressed on body_4's
+    // and was dropped: on the 23k-triangle engine part the rims of body_6, ending on body_4's
     // walls, lost 0.044 of the 0.478 that backs cover of their hemisphere, and saw that much more
     // sky: 3.8% of the mean too bright against exact.)
     static_assert(kFractionRays <= kRayBatch);
