@@ -1396,6 +1396,29 @@ TEST_P(Contact, TheFloorBesideABoxTakesTheLightOfAFloorSplitAlongItsFootprint) {
       }
 }
 
+// A scene's mesh with patches no longer than `edge` (its primitives numbered in order first), and
+// its bakes under a uniform sky of 1 by the exact and the hierarchical transports; the mean of a
+// bake's red channel over its vertices.
+PatchMesh meshWithEdges(Scene& scene, double edge) {
+  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+  TessellateOptions t;
+  t.maxEdgeLength = edge;
+  return tessellate(scene, t);
+}
+std::pair<Solution, Solution> bothUnderSky(const Scene& scene, const PatchMesh& mesh) {
+  RadiosityOptions o;
+  o.sky = {1, 1, 1};
+  o.transport = TransportMode::kExact;
+  Solution exact = solveRadiosity(scene, mesh, o);
+  o.transport = TransportMode::kHierarchical;
+  return {std::move(exact), solveRadiosity(scene, mesh, o)};
+}
+double meanRed(const Solution& s) {
+  double mean = 0;
+  for (const Vec3& L : s.vertexRadiance) mean += L.x / double(s.vertexRadiance.size());
+  return mean;
+}
+
 // A face pressed on another part's (parts of an assembly in contact): a block's bottom on a floor,
 // turned off the axes as an assembly's parts are by their nodes, under a sky. Each bottom vertex
 // lies inside a floor patch facing it in its plane; where rounding lifts that patch over the
@@ -1419,19 +1442,11 @@ TEST(Contact, AFacePressedOnAnotherGathersAsInTheExactTransport) {
     for (Vec3& x : p.positions) x = turn(x) + shift;
     for (Vec3& n : p.normals) n = turn(n);
   }
-  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
-  TessellateOptions t;
-  t.maxEdgeLength = 0.3;
-  const PatchMesh mesh = tessellate(scene, t);
-  RadiosityOptions o;
-  o.sky = {1, 1, 1};
-  o.transport = TransportMode::kExact;
-  const Solution exact = solveRadiosity(scene, mesh, o);
-  o.transport = TransportMode::kHierarchical;
-  const Solution hier = solveRadiosity(scene, mesh, o);
+  const PatchMesh mesh = meshWithEdges(scene, 0.3);
+  const auto [exact, hier] = bothUnderSky(scene, mesh);
   int bottom = 0, pressed = 0;
-  double worst = 0, mean = 0;
-  for (size_t v = 0; v < mesh.positions.size(); ++v) mean += exact.vertexRadiance[v].x / double(mesh.positions.size());
+  double worst = 0;
+  const double mean = meanRed(exact);
   const Vec3 down = turn({0, -1, 0});
   for (size_t v = 0; v < mesh.positions.size(); ++v) {
     if (!(dot(mesh.normals[v], down) > 0.5)) continue;  // the block's bottom
@@ -1457,19 +1472,11 @@ TEST(Sky, AFloorSeesTheBackOfACanopyBehindAPlateAsInTheExactTransport) {
   scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
   scene.primitives.push_back(quadPrimitive({Vec3{-1, 1, -1}, {-1, 1, 1}, {1, 1, 1}, {1, 1, -1}}, 1));
   scene.primitives.push_back(quadPrimitive({Vec3{-0.25, 0.5, -0.6}, {-0.25, 0.5, 0.6}, {0.25, 0.5, 0.6}, {0.25, 0.5, -0.6}}, 2));
-  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
-  TessellateOptions t;
-  t.maxEdgeLength = 0.1;
-  const PatchMesh mesh = tessellate(scene, t);
-  RadiosityOptions o;
-  o.sky = {1, 1, 1};
-  o.transport = TransportMode::kExact;
-  const Solution exact = solveRadiosity(scene, mesh, o);
-  o.transport = TransportMode::kHierarchical;
-  const Solution hier = solveRadiosity(scene, mesh, o);
-  double worst = 0, mean = 0, squares = 0;
+  const PatchMesh mesh = meshWithEdges(scene, 0.1);
+  const auto [exact, hier] = bothUnderSky(scene, mesh);
+  double worst = 0, squares = 0;
   int under = 0;
-  for (size_t v = 0; v < mesh.positions.size(); ++v) mean += exact.vertexRadiance[v].x / double(mesh.positions.size());
+  const double mean = meanRed(exact);
   for (size_t v = 0; v < mesh.positions.size(); ++v) {
     const Vec3& x = mesh.positions[v];
     if (!(x.y < 0.25 && std::abs(x.x) < 1 && std::abs(x.z) < 1)) continue;  // the floor under the canopy
@@ -1496,10 +1503,7 @@ TEST(Contact, AFaceHangingBelowAFloorCoversNothingOfIt) {
   scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
   const double lift = 1e-9;  // below the occlusion epsilon of a 4 m scene
   scene.primitives.push_back(quadPrimitive({Vec3{0, lift, -1}, {0, -1, -1}, {0, -1, 1}, {0, lift, 1}}, 1));
-  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
-  TessellateOptions t;
-  t.maxEdgeLength = 0.5;
-  const PatchMesh mesh = tessellate(scene, t);
+  const PatchMesh mesh = meshWithEdges(scene, 0.5);
   for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
     RadiosityOptions o;
     o.sky = {1, 1, 1};
