@@ -42,6 +42,8 @@ def write_glb(path, gltf, binary):
 
 
 def main():
+    if len(sys.argv) not in (4, 5) or sys.argv[4:] not in ([], ["--tail"]):
+        sys.exit(__doc__)
     src, dst, target = sys.argv[1], sys.argv[2], int(sys.argv[3])
     tail = sys.argv[4:] == ["--tail"]
     gltf, binary = read_glb(src)
