@@ -2489,7 +2489,8 @@ TracedBackSides tracedBackSides(const PatchMesh& mesh, const Occlusion& occlusio
 // skyFromRows), which both of its walks must know (WalkSetup::rowsCoverSky).
 bool rowsCoverSky(const Hierarchical& h, const RadiosityOptions& options) { return hasSky(options) && !h.perPatch; }
 
-// Per receiver, the patches pressed against it: in its plane, facing it, and touching its point (a
+// Per receiver, the patches pressed against it: its point in their plane, facing it (any negative
+// cosine between the normals: looser than kPressedCos), and touching its point (a
 // face of another part in contact with its own, as an assembly's parts are). The kernel takes
 // their in-plane limit, up to the receiver's whole hemisphere, all at its point. The walk cannot
 // find them: a cluster in a flat group's plane lies on its horizon and is culled, and a larger one

@@ -1504,17 +1504,14 @@ TEST(Contact, AFaceHangingBelowAFloorCoversNothingOfIt) {
   const double lift = 1e-9;  // below the occlusion epsilon of a 4 m scene
   scene.primitives.push_back(quadPrimitive({Vec3{0, lift, -1}, {0, -1, -1}, {0, -1, 1}, {0, lift, 1}}, 1));
   const PatchMesh mesh = meshWithEdges(scene, 0.5);
-  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
-    RadiosityOptions o;
-    o.sky = {1, 1, 1};
-    o.transport = transport;
-    const Solution s = solveRadiosity(scene, mesh, o);
+  const auto [exact, hier] = bothUnderSky(scene, mesh);
+  for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
     int online = 0;
     for (size_t v = 0; v < mesh.positions.size(); ++v) {
       const Vec3& x = mesh.positions[v];
       if (!(mesh.normals[v].y > 0.5)) continue;  // the floor
       online += std::abs(x.x) < 1e-6 && std::abs(x.z) <= 1;
-      EXPECT_NEAR(s.vertexRadiance[v].x, 0.5, 1e-6) << "floor vertex at " << x.x << " " << x.z << ", transport " << int(transport);
+      EXPECT_NEAR(s->vertexRadiance[v].x, 0.5, 1e-6) << "floor vertex at " << x.x << " " << x.z << ", transport " << transport;
     }
     EXPECT_GE(online, 5) << "no floor vertex on the hanging face's line: the scene no longer tests it";
   }
