@@ -1253,6 +1253,12 @@ constexpr int kBackGrid = 16;
 // With these (and link rays spread over the patches, linkTarget): 0.27% less, 1.1 s for 1.0 s.
 constexpr uint32_t kHiddenRays = 8;
 constexpr double kHiddenFactorPerRay = 1e-4;
+// Those extra rays go from at most this many sites' worth of the group in all, spread over its
+// sites: every site's link rays were blocked already. Asked of every site, they were two fifths of
+// the whole 2CylinderEngine's cluster rays (3.2G of 8.0G: a cluster hidden from a group of 17-64
+// sites behind the parts of an assembly took 136 to 512 more). With these, 6.2G and 11% less time,
+// the errors against exact unchanged on five scenes: docs/results.md, "Twenty-eighth session".
+constexpr uint32_t kHiddenSites = 4;
 // A link gets one visibility ray per receiver for every this much of its factor (up to
 // kClusterRays): measured on the Cornell box at N = 20, it halves the rays of 4 per receiver for
 // 0.2% RMS and 2.6% largest error, against 0.17% and 1.9%.
@@ -1933,11 +1939,12 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             listSites(gi);
             const uint32_t perReceiver = raysPerReceiver(sites, factor, w.weight ? kLinkRays : kClusterRays);
             const uint32_t count = sites * perReceiver;
-            // Rays k / per receiver to a hashed patch, for k = index(j), j < n, traced in batches;
+            // Rays k of `total` to a hashed patch, for k = index(j), j < n, traced in batches, ray k
+            // from site k · sites / total (k / per receiver where total = sites · per);
             // with `stopWhenMixed` it stops at the first batch that shows some rays through and
             // some blocked, counting `prior` rays already traced (the pair is then opened whatever
             // the rest say). Returns those through and those asked, `prior` included.
-            auto trace = [&](uint32_t n, uint32_t per, auto index, bool stopWhenMixed, std::pair<uint32_t, uint32_t> prior) {
+            auto trace = [&](uint32_t n, uint32_t total, auto index, bool stopWhenMixed, std::pair<uint32_t, uint32_t> prior) {
               auto [through, asked] = prior;
               for (uint32_t first = 0; first < n; first += kRayBatch) {
                 segments.clear();
@@ -1945,7 +1952,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 const uint32_t last = std::min(n, first + kRayBatch);
                 for (uint32_t j = first; j < last; ++j) {
                   const uint32_t k = index(j);
-                  const uint32_t from = siteAt(g, k / per), v = R.order[from];
+                  const uint32_t from = siteAt(g, uint32_t(uint64_t(k) * sites / total)), v = R.order[from];
                   uint32_t start = uint32_t((uint64_t(k) * 2654435761u + c.count / 2) % c.count);
                   if (w.lightSum && k % 2 == 0) start = drawnByLight(*w.lightSum, c, start);
                   uint32_t at = c.first + start, item = S.order[at];
@@ -1986,7 +1993,7 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
             bool inheritedThrough = false, inheritedBlocked = false;
             for (uint32_t e = 0; e < entry.count; ++e) (entry.rays[e].through ? inheritedThrough : inheritedBlocked) = true;
             const bool inheritedMixed = inheritedThrough && inheritedBlocked;
-            auto [seen, asked] = wasHidden || inheritedMixed ? std::pair{0u, count} : trace(probes, perReceiver, probe, false, {0, 0});
+            auto [seen, asked] = wasHidden || inheritedMixed ? std::pair{0u, count} : trace(probes, count, probe, false, {0, 0});
             // Partly seen on the inherited rays and its own together: opened, as on mixed probes.
             if (inheritedMixed || (seen == probes && inheritedBlocked) || (seen == 0 && inheritedThrough))
               std::tie(seen, asked) = std::pair{1u, probes};
@@ -2009,14 +2016,15 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
                 for (uint32_t k = 0; k < probes && probe(k) <= j; ++k) ++j;
                 return j;
               };
-              std::tie(seen, asked) = trace(count - probes, perReceiver, rest, true, {seen, asked});
+              std::tie(seen, asked) = trace(count - probes, count, rest, true, {seen, asked});
             }  // else: some probes through and some blocked, the pair is opened
             // Hidden when every receiver's rays are blocked, the same evidence a link needs (it was
             // taken for small pairs only, and large hidden pairs were opened down to them: in the
             // Cornell box at N = 40, 69M of 120M cluster rays went to finding the blocks' shadows).
-            // All blocked: more rays per receiver before the pair is called hidden, where its factor
-            // asks for them (kHiddenRays); one getting through makes it partly seen (count is at
-            // least kClusterRays, so seen = 1 is not a link).
+            // All blocked: more rays before the pair is called hidden, where its factor asks for
+            // them (kHiddenRays a site, for kHiddenSites sites at most, spread over the group); one
+            // getting through makes it partly seen (count is at least kClusterRays, so seen = 1 is
+            // not a link).
             // (A pair the first walk called hidden was traced with that walk's rays per receiver,
             // which the light's weight may have raised since: it is asked the larger number.)
             const uint32_t hiddenRays = std::max(hiddenRaysPerReceiver(factor), perReceiver);
@@ -2025,7 +2033,8 @@ std::vector<std::vector<ClusterLink>> walkPairs(const WalkSetup& w, const std::f
               if (w.deferredHidden) {
                 (*w.deferredHidden)[task].push_back({gi, ci});
                 kept += sizeof(std::pair<uint32_t, uint32_t>);
-              } else if (trace(sites * hiddenRays, hiddenRays, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) {
+              } else if (const uint32_t extra = std::min(sites, kHiddenSites) * hiddenRays;
+                         trace(extra, extra, [](uint32_t k) { return k; }, true, {0, 0}).first > 0) {
                 seen = 1;
               }
             }
