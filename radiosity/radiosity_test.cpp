@@ -11,6 +11,7 @@
 #include <fstream>
 #include <functional>
 #include <set>
+#include <string_view>
 #include <tuple>
 
 #include "radiosity/form_factor.h"
@@ -906,6 +907,17 @@ TEST(Visibility, ALargeEmitterIsSeenAroundAPlateBelowIt) {
   }
 }
 
+// Solves the scene with each transport, the exact one (the tests' reference) and the hierarchical
+// one, and hands each solution to check with the transport's name.
+template <typename Check>
+void withEachTransport(const Scene& scene, const PatchMesh& mesh, Check check) {
+  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
+    RadiosityOptions o;
+    o.transport = transport;
+    check(solveRadiosity(scene, mesh, o), transport == TransportMode::kHierarchical ? "hierarchical" : "exact");
+  }
+}
+
 // An emitting panel (4 × 4, one patch) 2 cm above a floor of 16 × 16 quads, facing it, nothing
 // between (a ceiling over a lamp hung just below it, upside down). A floor vertex's radiance is
 // ρ L⁰ F, F the closed-form factor of the panel. The panel fills nearly the whole hemisphere, so
@@ -921,20 +933,16 @@ TEST(Visibility, AnEmitterJustAboveAFloorIsSeenWholeWithoutRays) {
   scene.primitives.push_back(quadPrimitive({Vec3{-2, h, -2}, {2, h, -2}, {2, h, 2}, {-2, h, 2}}, 1));  // faces −y
   for (int p = 0; p < 2; ++p) scene.primitives[p].primitive = p;
   const PatchMesh mesh = tessellate(scene, TessellateOptions{});
-  for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
-    RadiosityOptions o;
-    o.transport = transport;
-    const Solution s = solveRadiosity(scene, mesh, o);
-    const char* name = transport == TransportMode::kHierarchical ? "hierarchical" : "exact";
+  withEachTransport(scene, mesh, [&](const Solution& s, std::string_view name) {
     const FloorError e = floorError(mesh, s, [&](const Vec3& x) { return parallelRectangleFactor(x.x, x.z, -2, 2, -2, 2, h); });
     ASSERT_EQ(e.count, (n + 1) * (n + 1));
     EXPECT_LT(e.worst, 1e-3) << name;
     // The hierarchical transport counts its pair rays: 118,760 with the pieces traced, 1,320 (the
     // panel's corners gathering from the floor's patches) without.
-    if (transport == TransportMode::kHierarchical) {
+    if (name == "hierarchical") {
       EXPECT_LT(s.nearRays, size_t(5 * e.count));
     }
-  }
+  });
 }
 
 // A source straddling a receiver's horizon sends only what lies above it, and that part's
@@ -954,17 +962,13 @@ TEST(Visibility, ASourceStraddlingTheHorizonIsJudgedByItsPartAboveIt) {
     if (strip) scene.primitives.push_back(quadPrimitive({Vec3{0.5, -0.01, -2}, {0.5, -0.01, 2}, {0.5, 0.08, 2}, {0.5, 0.08, -2}}, 2));
     for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
     const PatchMesh mesh = tessellate(scene, TessellateOptions{});
-    for (TransportMode transport : {TransportMode::kExact, TransportMode::kHierarchical}) {
-      RadiosityOptions o;
-      o.transport = transport;
-      const Solution s = solveRadiosity(scene, mesh, o);
-      const char* name = transport == TransportMode::kHierarchical ? "hierarchical" : "exact";
+    withEachTransport(scene, mesh, [&](const Solution& s, std::string_view name) {
       for (size_t v = 0; v < mesh.positions.size(); ++v) {
         if (mesh.positions[v].y != 0) continue;  // the floor's
         if (strip) EXPECT_LT(s.vertexRadiance[v].x, 1e-6) << name << " vertex " << v;
         else EXPECT_GT(s.vertexRadiance[v].x, 2e-4) << name << " vertex " << v;
       }
-    }
+    });
   }
 }
 

@@ -37,23 +37,7 @@ for target in "${targets[@]}"; do
       --transport exact -q
     diff=$(python3 bench/hierarchical/compare.py "$tmp/exact.glb" "$tmp/hierarchical.glb")
   fi
-  python3 - "$target" "$triangles" "$tmp" "$diff" <<'PY'
-import json, sys
-target, triangles, tmp, diff = sys.argv[1:]
-ht, hm = open(f"{tmp}/hierarchical.time").read().split()
-r = json.load(open(f"{tmp}/hierarchical.json"))
-s = r["solver"]
-name = "whole engine (default bake)" if target == "whole" else f"part ({target})"
-row = (f"| {name} | {triangles} | {r['counts']['patches']} | {float(ht):.1f} | {int(hm) // 1024} | {s['matrixEntries']} | "
-       f"{s['farLinks']} | {s['clusterRays']} | {s['nearRays']} |")
-if diff:
-    et, em = open(f"{tmp}/exact.time").read().split()
-    rms = diff.split("rms ")[1].split()[0]
-    largest = diff.split("max ")[1].split()[0]
-    row += f" {float(et):.1f} | {int(em) // 1024} | {float(et) / float(ht):.1f}x | {rms} | {largest} |"
-else:
-    row += " – | – | – | – | – |"
-print(row)
-PY
+  name="part ($target)"; [ "$target" = whole ] && name="whole engine (default bake)"
+  python3 bench/hierarchical/row.py "$tmp" "$diff" "$name" "$triangles"
   rm -f "$tmp"/exact.* "$tmp"/hierarchical.*
 done

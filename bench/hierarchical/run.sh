@@ -24,23 +24,7 @@ for n in "${levels[@]}"; do
   done
   diff=""
   [ -f "$tmp/exact.glb" ] && diff=$(python3 bench/hierarchical/compare.py "$tmp/exact.glb" "$tmp/hierarchical.glb")
-  python3 - "$n" "$tmp" "$diff" <<'PY' | tee -a "$tmp/rows"
-import json, os, sys
-n, tmp, diff = sys.argv[1], sys.argv[2], sys.argv[3]
-ht, hm = open(f"{tmp}/hierarchical.time").read().split()
-r = json.load(open(f"{tmp}/hierarchical.json"))
-s = r["solver"]
-row = (f"| {n} | {r['counts']['patches']} | {float(ht):.1f} | {int(hm) // 1024} | {s['matrixEntries']} | {s['farLinks']} | "
-       f"{s['clusterRays']} | {s['nearRays']} |")
-if diff:
-    et, em = open(f"{tmp}/exact.time").read().split()
-    rms = diff.split("rms ")[1].split()[0]
-    largest = diff.split("max ")[1].split()[0]
-    row += f" {float(et):.1f} | {int(em) // 1024} | {float(et) / float(ht):.1f}x | {rms} | {largest} |"
-else:
-    row += " – | – | – | – | – |"
-print(row)
-PY
+  python3 bench/hierarchical/row.py "$tmp" "$diff" "$n" | tee -a "$tmp/rows"
   rm -f "$tmp"/exact.*
 done
 fit_growth "$tmp/rows" 2 3 9000
