@@ -886,7 +886,7 @@ std::array<double, 4> probedFraction(const Sight& sight, const Vec3& n, const st
 int probesThrough(const Vec3& from, const Vec3& n, std::span<const Vec3> probes, const bool* seen) {
   const int through = int(std::count(seen, seen + probes.size(), true));
   const bool straddles = std::any_of(probes.begin(), probes.end(), [&](const Vec3& p) { return !(dot(n, p - from) > 0); });
-  return straddles ? std::clamp(through, 1, int(probes.size()) - 1) : through;  // to the grid (its fallback: this share)
+  return straddles ? std::clamp(through, 1, int(probes.size()) - 1) : through;  // neither all nor none: to the grid
 }
 
 // Visibility between a receiver point and a whole patch, as a fraction per shape function: five
