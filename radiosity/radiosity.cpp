@@ -807,10 +807,9 @@ double pointKernel(const Vec3& n, const Vec3& m, const Vec3& d) {
 }
 
 // The shape functions' unoccluded kernel from a receiving point over a piece, by a 4×4 Gauss grid
-// (no Jacobian: only its ratios are used, the visible fractions of a piece).
-std::array<double, 4> gridWeight(const Vec3& from, const Vec3& n, const std::array<Vec3, 4>& q, const Vec3& qNormal,
-                                 const Piece& piece, int a, int b) {
-  const double kernel = pointKernel(n, qNormal, piece.at(q, kGaussNode[a], kGaussNode[b]) - from);
+// (no Jacobian: only its ratios are used, the visible fractions of a piece), at grid point (a, b)
+// where the point kernel is `kernel`.
+std::array<double, 4> gridWeight(double kernel, const Piece& piece, int a, int b) {
   const auto nj = shapeFunctions(piece.s + piece.half * kGaussNode[a], piece.t + piece.half * kGaussNode[b]);
   std::array<double, 4> w;
   for (int j = 0; j < 4; ++j) w[j] = kGaussWeight[a] * kGaussWeight[b] * nj[j] * (kernel > 0 ? kernel : 1e-300);
@@ -837,13 +836,20 @@ std::array<double, 4> probedFraction(const Sight& sight, const Vec3& n, const st
   if (seen == 5) return {1, 1, 1, 1};
   if (seen == 0) return {0, 0, 0, 0};
   const double lift = sight.occlusion.epsilon() * 10;
+  std::array<Vec3, 16> grid;     // the rays' ends, lifted off the piece
+  std::array<double, 16> kernel;  // the point kernel there
+  bool sends = false;
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      const Vec3 at = piece.at(q, kGaussNode[a], kGaussNode[b]);
+      kernel[4 * a + b] = pointKernel(n, qNormal, at - sight.from);
+      sends = sends || kernel[4 * a + b] > 0;
+      grid[4 * a + b] = at + qNormal * lift;
+    }
   // No grid point in front of the receiver (a sliver of a piece straddling its horizon, between the
   // grid's points): one ray to the sliver, halfway from the corner highest above the horizon to
   // where the line to the piece's centre crosses it, judges it whole. (The grid's points below
   // the horizon, all weighing alike, decided it before, as the probes there did.)
-  bool sends = false;
-  for (int a = 0; a < 4 && !sends; ++a)
-    for (int b = 0; b < 4 && !sends; ++b) sends = pointKernel(n, qNormal, piece.at(q, kGaussNode[a], kGaussNode[b]) - sight.from) > 0;
   if (!sends) {
     const Vec3 centre = piece.at(q, 0, 0);
     const std::array<Vec3, 4> corner{piece.at(q, -1, -1), piece.at(q, 1, -1), piece.at(q, 1, 1), piece.at(q, -1, 1)};
@@ -857,16 +863,13 @@ std::array<double, 4> probedFraction(const Sight& sight, const Vec3& n, const st
       return {v, v, v, v};
     }
   }
-  std::array<Vec3, 16> grid;
-  for (int a = 0; a < 4; ++a)
-    for (int b = 0; b < 4; ++b) grid[4 * a + b] = piece.at(q, kGaussNode[a], kGaussNode[b]) + qNormal * lift;
   bool gridSeen[16];
   sight.visibleAll(grid, gridSeen);
   rays += 16;
   std::array<double, 4> all{}, visible{};
   for (int a = 0; a < 4; ++a)
     for (int b = 0; b < 4; ++b) {
-      const auto w = gridWeight(sight.from, n, q, qNormal, piece, a, b);
+      const auto w = gridWeight(kernel[4 * a + b], piece, a, b);
       for (int j = 0; j < 4; ++j) {
         all[j] += w[j];
         if (gridSeen[4 * a + b]) visible[j] += w[j];

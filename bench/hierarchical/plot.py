@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parent.parent.parent
 
 
 def table(path):
-    """The rows of the first Markdown table in `path` as dicts by column name ({} per missing file)."""
+    """The rows of the first Markdown table in `path` as dicts by column name (none for a missing file)."""
     if not path.exists():
         return []
     lines = [line.strip() for line in path.read_text().splitlines() if line.strip().startswith("|")]
