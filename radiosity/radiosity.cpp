@@ -3821,7 +3821,10 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
       Ticker refineTicker(options.progress, n, kRefineProgress[1], kRefineProgress[2]);
       solution.refinedLinks = refineByLight(H, mesh, occlusion, options, *recv, nearPair, L, refineTicker);
       closeRows(H, *recv, *closure);  // after pairs walked again (links, or pairs once called hidden)
-      if (hasSky(options) && skyFromTheRows) source = sourceWith(rowSky());  // the rows as the final solve gathers them
+      if (hasSky(options) && skyFromTheRows) {
+        sky = rowSky();  // the rows as the final solve gathers them
+        source = sourceWith(sky);
+      }
       solveFrom = kRefineProgress[2];
       solution.matrixEntries = H.nearEntries;
       solution.farLinks = H.linkCount;
@@ -3839,6 +3842,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     }
   }
   iterate(gather, source, reflectance, options, options.relativeResidual, solveFrom, 1, L, gathered, solution);
+  if (hasSky(options)) solution.skyFraction = sky.empty() ? std::vector<double>(n, 0.0) : std::move(sky);
   if (bilinear) {
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {

@@ -50,6 +50,9 @@ struct Solution {
   bool converged = true;  // false: maxIterations ran out before the residual reached the tolerance
   double residual = 0;  // relative, as in RadiosityOptions
   bool interreflection = false;  // false: emission only (L = L⁰)
+  // Under a sky, per unknown, the share of its hemisphere (cosine-weighted) that no surface covers:
+  // what the solve lit by the sky (0 inside a closed surface). Empty without a sky.
+  std::vector<double> skyFraction;
   size_t matrixEntries = 0;      // transport factors (stored, or estimated when matrix-free)
   size_t farLinks = 0;           // hierarchical: links from receivers to whole source clusters
   size_t refinedLinks = 0;       // hierarchical: links walked again for the light they carry
