@@ -1552,6 +1552,43 @@ TEST(Contact, AFaceHangingBelowAFloorCoversNothingOfIt) {
   }
 }
 
+// A smooth-shaded surface running through a plate (a bore through a wall in a CAD assembly): its
+// vertices along the plate's plane are in the plate, which covers the half of their hemisphere
+// beyond it, seen from the side in front of it: a sky of exactly 1/2 (the crease limit of a plane
+// through the point at right angles to its own). The vertex's own patches lie on both sides of the
+// plate and in two planes (a ridge); it took its approach from their centres, along the plate,
+// and saw it edge-on: a sky of 1, in both transports (on a 2CylinderEngine part 0.92 where the side
+// in front sees about 0.42: bench/skycheck).
+TEST(Contact, ASmoothSurfaceRunningThroughAPlateSeesTheSkyInFrontOfIt) {
+  Scene scene;
+  scene.materials = {material("plate", 0.5, 0), material("ridge", 0.5, 0)};
+  scene.primitives.push_back(quadPrimitive({Vec3{0, -0.5, -1}, {0, -0.5, 1}, {0, 1.5, 1}, {0, 1.5, -1}}, 0));  // facing -x
+  Primitive ridge;
+  ridge.material = 1;
+  ridge.hasNormals = true;
+  ridge.positions = {{-1, 0, -0.5}, {1, 0, -0.5}, {1, 0.1, 0}, {-1, 0.1, 0}, {-1, 0, 0.5}, {1, 0, 0.5}};
+  const Vec3 south = normalize(Vec3{0, 1, -0.2}), north = normalize(Vec3{0, 1, 0.2});
+  ridge.normals = {south, south, {0, 1, 0}, {0, 1, 0}, north, north};
+  ridge.triangles = {{0, 3, 2}, {0, 2, 1}, {3, 4, 5}, {3, 5, 2}};
+  scene.primitives.push_back(ridge);
+  const PatchMesh mesh = meshWithEdges(scene, 0.25);
+  const auto [exact, hier] = bothUnderSky(scene, mesh);
+  for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
+    ASSERT_EQ(s->skyFraction.size(), mesh.positions.size());
+    std::set<uint32_t> inPlate, onRidge;
+    for (const Patch& patch : mesh.patches)
+      for (const uint32_t v : patch.v)
+        if (patch.primitive == 1 && std::abs(mesh.positions[v].x) < 1e-9) {
+          inPlate.insert(v);
+          if (mesh.positions[v].y > 0.1 - 1e-9) onRidge.insert(v);
+        }
+    EXPECT_GE(inPlate.size(), 5u) << "no vertex of the ridge in the plate's plane: the scene no longer tests it";
+    EXPECT_EQ(onRidge.size(), 1u);
+    for (const uint32_t v : inPlate)
+      EXPECT_NEAR(s->skyFraction[v], 0.5, 0.01) << "vertex at y " << mesh.positions[v].y << ", z " << mesh.positions[v].z << ", transport " << transport;
+  }
+}
+
 // A floor vertex within rounding of the foot of a box's wall (Blender writes single precision: a
 // cube on a grid meets it 1.2e-7 apart) takes the light of one exactly at it, from the side in
 // front of the wall. The floor is either split along the foot (two quads, x = 1 + off) or one quad
