@@ -5,7 +5,8 @@
 // Bakes INPUT under a sky of 1 (`--refine off`, the CLI's other defaults) and reads the share of
 // each vertex's hemisphere that no surface covers (Solution::skyFraction). Then, with nothing of
 // radbake's visibility or kernel code, it traces N × N stratified cosine-distributed rays from each
-// vertex into Embree's own scene of the patches and counts those that meet nothing. The origin is
+// vertex (about its geometric normal, the mean of its own patches' planes, as the solve's) into
+// Embree's own scene of the patches and counts those that meet nothing. The origin is
 // the vertex lifted off its surface by a millionth of the scene and moved ten times that into its
 // own patches (off the plane of a wall meeting it at a crease), and 8 more origins around it along
 // its surface (N/2 rays per axis) give a range: a vertex can lie on another surface (a contact, one
@@ -169,9 +170,21 @@ int main(int argc, char** argv) try {
       if (length(d) > 0) inward[patch.v[k]] += d / length(d);
     }
   }
+  // The receiving normal is the geometry's, as the solve's (docs/radiosity.md): the mean of the
+  // distinct planes of the vertex's own patches (a file's shading normal can lie outside them).
+  std::vector<Vec3> normal(n);
+  for (size_t i = 0; i < n; ++i) {
+    std::vector<Vec3> planes;
+    for (const uint32_t p : own[i])
+      if (std::none_of(planes.begin(), planes.end(), [&](const Vec3& m) { return dot(m, mesh.patches[p].normal) > 1 - 1e-9; }))
+        planes.push_back(mesh.patches[p].normal);
+    Vec3 sum{};
+    for (const Vec3& m : planes) sum += m;
+    normal[i] = length(sum) > 1e-9 ? sum / length(sum) : mesh.normals[i];
+  }
   std::vector<Vec3> origin(n);
   for (size_t i = 0; i < n; ++i) {
-    const Vec3& nv = mesh.normals[i];
+    const Vec3& nv = normal[i];
     const Vec3 in = inward[i] - nv * dot(nv, inward[i]);
     origin[i] = mesh.positions[i] + nv * lift + (length(in) > 1e-9 ? in / length(in) * (10 * lift) : Vec3{});
   }
@@ -190,7 +203,7 @@ int main(int argc, char** argv) try {
   std::vector<Traced> traced(n);
   tbb::parallel_for(size_t(0), n, [&](size_t i) {
     Traced& t = traced[i];
-    const Vec3& nv = mesh.normals[i];
+    const Vec3& nv = normal[i];
     auto take = [&](const Census& c) {
       if (c.near > 0) return;
       if (!t.judged || c.open < t.low) t.low = c.open;
@@ -236,7 +249,7 @@ int main(int argc, char** argv) try {
   for (size_t k = 0; k < std::min<size_t>(args.top, order.size()); ++k) {
     const size_t i = order[k];
     std::printf("  vertex %zu at (%.6g, %.6g, %.6g) normal (%.3f, %.3f, %.3f): solved %.4f, rays %.4f", i, mesh.positions[i].x,
-                mesh.positions[i].y, mesh.positions[i].z, mesh.normals[i].x, mesh.normals[i].y, mesh.normals[i].z,
+                mesh.positions[i].y, mesh.positions[i].z, normal[i].x, normal[i].y, normal[i].z,
                 solution.skyFraction[i], traced[i].low);
     if (traced[i].high > traced[i].low) std::printf(" to %.4f", traced[i].high);
     std::printf("\n");
@@ -254,8 +267,8 @@ int main(int argc, char** argv) try {
     std::ofstream out(args.csv);
     out << "vertex,x,y,z,nx,ny,nz,solved,low,high,judged\n";
     for (size_t i = 0; i < n; ++i)
-      out << i << ',' << mesh.positions[i].x << ',' << mesh.positions[i].y << ',' << mesh.positions[i].z << ',' << mesh.normals[i].x
-          << ',' << mesh.normals[i].y << ',' << mesh.normals[i].z << ',' << solution.skyFraction[i] << ',' << traced[i].low << ','
+      out << i << ',' << mesh.positions[i].x << ',' << mesh.positions[i].y << ',' << mesh.positions[i].z << ',' << normal[i].x
+          << ',' << normal[i].y << ',' << normal[i].z << ',' << solution.skyFraction[i] << ',' << traced[i].low << ','
           << traced[i].high << ',' << traced[i].judged << '\n';
   }
   return 0;
