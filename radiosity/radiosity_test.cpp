@@ -1552,6 +1552,37 @@ TEST(Contact, AFaceHangingBelowAFloorCoversNothingOfIt) {
   }
 }
 
+// A face below a floor whose plane passes through a floor vertex, the vertex inside it by a few
+// millionths, so that only a sliver of it (its corner, 3e-6 away, 2.9e-6 up) rises above the floor,
+// within the lift its rays start from (10 epsilon, 5.7e-6 here): as CAD parts meet with a corner a
+// few float steps off. Nothing stands above the floor, so its sky is 1. The kernel gave the face its
+// in-plane limit at the vertex, 0.5 (1 - n.m) = 0.36 of its hemisphere, in both transports (on the
+// 2CylinderEngine 0.52-0.63 where independent rays see a sky of 1: bench/skycheck).
+TEST(Contact, AFaceRisingAboveAFloorOnlyWithinTheRaysLiftCoversNothingOfIt) {
+  Scene scene;
+  scene.materials = {material("floor", 0.5, 0), material("face", 0.5, 0)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}}, 0));
+  // The face's plane holds the floor vertex at the origin; e1 along it, e2 down its slope.
+  const Vec3 e1{1, 0, 0}, e2 = normalize(Vec3{0, -1, 0.3});
+  const Vec3 a = e2 * -3e-6, b = e1 * -1 + e2, c = e1 + e2;
+  Primitive face = quadPrimitive({a, b, c, c}, 1);
+  face.triangles = {{0, 1, 2}};
+  scene.primitives.push_back(face);
+  const PatchMesh mesh = meshWithEdges(scene, 0.5);
+  const auto [exact, hier] = bothUnderSky(scene, mesh);
+  for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
+    bool atOrigin = false;
+    for (const Patch& patch : mesh.patches) {
+      if (patch.primitive != 0) continue;
+      for (const uint32_t v : patch.v) {
+        atOrigin |= length(mesh.positions[v]) == 0;
+        EXPECT_NEAR(s->skyFraction[v], 1, 1e-6) << "floor vertex at " << mesh.positions[v].x << " " << mesh.positions[v].z << ", transport " << transport;
+      }
+    }
+    EXPECT_TRUE(atOrigin) << "no floor vertex in the face's plane: the scene no longer tests it";
+  }
+}
+
 // A smooth-shaded surface running through a plate (a bore through a wall in a CAD assembly): its
 // vertices along the plate's plane are in the plate, which covers the half of their hemisphere
 // beyond it, seen from the side in front of it: a sky of exactly 1/2 (the crease limit of a plane
