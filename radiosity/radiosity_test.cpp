@@ -1552,6 +1552,40 @@ TEST(Contact, AFaceHangingBelowAFloorCoversNothingOfIt) {
   }
 }
 
+// A floor with a column of vertices on the foot of a plate standing through it (facing -x), and
+// beside the floor, 3e-7 away, a coplanar piece of floor that starts 3e-8 behind the plate (a crack,
+// as contact cuts and CAD parts leave them). The floor's vertices on the foot see the plate cover
+// the half of their hemisphere behind it: a sky of 1/2. The corner vertex (0, 0, 1) was moved onto
+// the nearest point of the other piece, 3e-8 behind the plate, and took none of it: a sky of 1.
+TEST(Contact, AVertexOnAPlatesFootStaysOnItBesideACrackInItsFloor) {
+  Scene scene;
+  scene.materials = {material("floor", 0.5, 0), material("plate", 0.5, 0)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}}, 0));
+  scene.primitives.push_back(quadPrimitive({Vec3{3e-8, 0, 1 + 3e-7}, {3e-8, 0, 2}, {1, 0, 2}, {1, 0, 1 + 3e-7}}, 0));
+  // The plate in two halves meeting along the floor (as a cut would leave it), not cut again.
+  scene.primitives.push_back(quadPrimitive({Vec3{0, -1, -2}, {0, -1, 3}, {0, 0, 3}, {0, 0, -2}}, 1));  // facing -x
+  scene.primitives.push_back(quadPrimitive({Vec3{0, 0, -2}, {0, 0, 3}, {0, 1, 3}, {0, 1, -2}}, 1));
+  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+  TessellateOptions t;
+  t.maxEdgeLength = 0.5;
+  t.cutContacts = false;
+  const PatchMesh mesh = tessellate(scene, t);
+  const auto [exact, hier] = bothUnderSky(scene, mesh);
+  for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
+    bool corner = false;
+    for (const Patch& patch : mesh.patches) {
+      if (patch.primitive != 0) continue;
+      for (const uint32_t v : patch.v) {
+        const Vec3& x = mesh.positions[v];
+        if (x.x != 0) continue;
+        corner |= x.z == 1;
+        EXPECT_NEAR(s->skyFraction[v], 0.5, 0.01) << "floor vertex at z " << x.z << ", transport " << transport;
+      }
+    }
+    EXPECT_TRUE(corner) << "no floor vertex at the crack: the scene no longer tests it";
+  }
+}
+
 // A face below a floor whose plane passes through a floor vertex, the vertex inside it by a few
 // millionths, so that only a sliver of it (its corner, 3e-6 away, 2.9e-6 up) rises above the floor,
 // within the lift its rays start from (10 epsilon, 5.7e-6 here): as CAD parts meet with a corner a
