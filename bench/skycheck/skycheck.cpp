@@ -1,6 +1,7 @@
 // skycheck: each vertex's sky, as a transport solves it, against independent rays.
 //
 //   skycheck INPUT [--transport exact|hierarchical] [--rays N] [--top K] [--csv FILE]
+//            [--max-rms R] [--max-off N]
 //
 // Bakes INPUT under a sky of 1 (`--refine off`, the CLI's other defaults) and reads the share of
 // each vertex's hemisphere that no surface covers (Solution::skyFraction). Then, with nothing of
@@ -16,8 +17,9 @@
 //
 // Prints how far the solved skies lie outside their ranges (RMS, mean, largest) and the K vertices
 // furthest out, with the patches their rays met first; --csv writes every vertex (index, position,
-// normal, solved, the range, judged). Threads: TBB's default (all cores). Used in docs/results.md,
-// "Thirtieth session".
+// normal, solved, the range, judged). With --max-rms or --max-off it exits 1 when the RMS, or the
+// count of vertices off by more than 0.05, is above the limit (ctest skycheck_engine_part). Threads:
+// TBB's default (all cores). Used in docs/results.md, "Thirtieth session".
 #include <embree3/rtcore.h>
 #include <tbb/parallel_for.h>
 
@@ -45,6 +47,8 @@ struct Args {
   std::string input, transport = "hierarchical", csv;
   int rays = 64;  // per axis of the stratified disk
   int top = 12;
+  double maxRms = -1;  // --max-rms: fail above this RMS (negative: no limit)
+  long maxOff = -1;    // --max-off: fail with more vertices than this off by more than 0.05
 };
 
 Args parse(int argc, char** argv) {
@@ -59,11 +63,14 @@ Args parse(int argc, char** argv) {
     else if (k == "--rays") a.rays = std::stoi(value());
     else if (k == "--top") a.top = std::stoi(value());
     else if (k == "--csv") a.csv = value();
+    else if (k == "--max-rms") a.maxRms = std::stod(value());
+    else if (k == "--max-off") a.maxOff = std::stol(value());
     else if (a.input.empty() && k[0] != '-') a.input = k;
     else throw std::runtime_error("skycheck: unknown argument " + k);
   }
   if (a.input.empty() || (a.transport != "exact" && a.transport != "hierarchical") || a.rays < 1)
-    throw std::runtime_error("usage: skycheck INPUT [--transport exact|hierarchical] [--rays N] [--top K] [--csv FILE]");
+    throw std::runtime_error("usage: skycheck INPUT [--transport exact|hierarchical] [--rays N] [--top K] [--csv FILE] "
+                             "[--max-rms R] [--max-off N]");
   return a;
 }
 
@@ -263,6 +270,8 @@ int main(int argc, char** argv) try {
   }
   rtcReleaseScene(rays);
   rtcReleaseDevice(device);
+  const long offCount = std::count_if(order.begin(), order.end(), [&](size_t i) { return std::abs(off(i)) > 0.05; });
+  std::printf("%ld vertices off by more than 0.05\n", offCount);
   if (!args.csv.empty()) {
     std::ofstream out(args.csv);
     out << "vertex,x,y,z,nx,ny,nz,solved,low,high,judged\n";
@@ -270,6 +279,15 @@ int main(int argc, char** argv) try {
       out << i << ',' << mesh.positions[i].x << ',' << mesh.positions[i].y << ',' << mesh.positions[i].z << ',' << normal[i].x
           << ',' << normal[i].y << ',' << normal[i].z << ',' << solution.skyFraction[i] << ',' << traced[i].low << ','
           << traced[i].high << ',' << traced[i].judged << '\n';
+  }
+  const double rms = std::sqrt(sum2 / counted);
+  if (args.maxRms >= 0 && rms > args.maxRms) {
+    std::fprintf(stderr, "skycheck: %s: RMS %.5f above --max-rms %g\n", args.input.c_str(), rms, args.maxRms);
+    return 1;
+  }
+  if (args.maxOff >= 0 && offCount > args.maxOff) {
+    std::fprintf(stderr, "skycheck: %s: %ld vertices off by more than 0.05, above --max-off %ld\n", args.input.c_str(), offCount, args.maxOff);
+    return 1;
   }
   return 0;
 } catch (const std::exception& e) {
