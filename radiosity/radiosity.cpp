@@ -464,6 +464,7 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
       near.clear();
       occlusion.patchesNear(r.point[v], offset, near);
       const auto ignored = r.ignored(v);
+      const auto own = r.own(v);
       double best = offset;
       Vec3 target, across{};
       double bestOther = offset;  // the same, onto patches not in one of the vertex's own planes
@@ -488,7 +489,7 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
             straddles = known->second;
           } else {
             if (centres.empty())
-              for (uint32_t i : r.own(v)) centres.push_back(pointOnPatch(corners(mesh, mesh.patches[i]), 0, 0) - mesh.positions[v]);
+              for (uint32_t i : own) centres.push_back(pointOnPatch(corners(mesh, mesh.patches[i]), 0, 0) - mesh.positions[v]);
             bool before = false, behind = false;
             for (const Vec3& c : centres) {
               before |= dot(c, patch.normal) > offset;
@@ -504,7 +505,6 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
           best = np.distance;
           target = pointOnPatch(q, np.s, np.t);
         }
-        const auto own = r.own(v);
         const bool ownPlane = std::any_of(own.begin(), own.end(), [&](uint32_t i) { return dot(mesh.patches[i].normal, patch.normal) > 1 - 1e-9; });
         if (!ownPlane && np.distance > 0 && np.distance <= bestOther) {
           bestOther = np.distance;
@@ -516,7 +516,8 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
       // changes nothing of what it sees but can take it off the surface it lies on. A
       // 2CylinderEngine vertex moved 7.8e-5 along its face so, 5e-8 behind a plate it was on, and
       // took none of it: 0.95 of sky where independent rays see at most 0.45 (bench/skycheck).
-      // Elsewhere such moves stay (without them a vertex inside another part's face stays there).
+      // Elsewhere such moves stay: forbidden everywhere, 38 vertices of another engine part came
+      // out further from those rays, by up to 0.51 (docs/results.md, "Thirtieth session").
       if (onContact) best = bestOther, target = targetOther;
       // A vertex whose patches lie on both sides of the foot (a floor cell straddling it, or a floor
       // cut along it, whose vertices there may coincide with the wall's) takes the crease limit from
