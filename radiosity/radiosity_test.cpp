@@ -1552,6 +1552,14 @@ TEST(Contact, AFaceHangingBelowAFloorCoversNothingOfIt) {
   }
 }
 
+// The vertices of a primitive's patches.
+std::set<uint32_t> verticesOf(const PatchMesh& mesh, int primitive) {
+  std::set<uint32_t> out;
+  for (const Patch& patch : mesh.patches)
+    if (patch.primitive == primitive) out.insert(patch.v.begin(), patch.v.end());
+  return out;
+}
+
 // A floor with a column of vertices on the foot of a plate standing through it (facing -x), and
 // beside the floor, 3e-7 away, a coplanar piece of floor that starts 3e-8 behind the plate (a crack,
 // as contact cuts and CAD parts leave them). The floor's vertices on the foot see the plate cover
@@ -1573,14 +1581,11 @@ TEST(Contact, AVertexOnAPlatesFootStaysOnItBesideACrackInItsFloor) {
   const auto [exact, hier] = bothUnderSky(scene, mesh);
   for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
     bool corner = false;
-    for (const Patch& patch : mesh.patches) {
-      if (patch.primitive != 0) continue;
-      for (const uint32_t v : patch.v) {
-        const Vec3& x = mesh.positions[v];
-        if (x.x != 0) continue;
-        corner |= x.z == 1;
-        EXPECT_NEAR(s->skyFraction[v], 0.5, 0.01) << "floor vertex at z " << x.z << ", transport " << transport;
-      }
+    for (const uint32_t v : verticesOf(mesh, 0)) {
+      const Vec3& x = mesh.positions[v];
+      if (x.x != 0) continue;
+      corner |= x.z == 1;
+      EXPECT_NEAR(s->skyFraction[v], 0.5, 0.01) << "floor vertex at z " << x.z << ", transport " << transport;
     }
     EXPECT_TRUE(corner) << "no floor vertex at the crack: the scene no longer tests it";
   }
@@ -1606,12 +1611,9 @@ TEST(Contact, AFaceRisingAboveAFloorOnlyWithinTheRaysLiftCoversNothingOfIt) {
   const auto [exact, hier] = bothUnderSky(scene, mesh);
   for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
     bool atOrigin = false;
-    for (const Patch& patch : mesh.patches) {
-      if (patch.primitive != 0) continue;
-      for (const uint32_t v : patch.v) {
-        atOrigin |= length(mesh.positions[v]) == 0;
-        EXPECT_NEAR(s->skyFraction[v], 1, 1e-6) << "floor vertex at " << mesh.positions[v].x << " " << mesh.positions[v].z << ", transport " << transport;
-      }
+    for (const uint32_t v : verticesOf(mesh, 0)) {
+      atOrigin |= length(mesh.positions[v]) == 0;
+      EXPECT_NEAR(s->skyFraction[v], 1, 1e-6) << "floor vertex at " << mesh.positions[v].x << " " << mesh.positions[v].z << ", transport " << transport;
     }
     EXPECT_TRUE(atOrigin) << "no floor vertex in the face's plane: the scene no longer tests it";
   }
@@ -1641,12 +1643,11 @@ TEST(Contact, ASmoothSurfaceRunningThroughAPlateSeesTheSkyInFrontOfIt) {
   for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
     ASSERT_EQ(s->skyFraction.size(), mesh.positions.size());
     std::set<uint32_t> inPlate, onRidge;
-    for (const Patch& patch : mesh.patches)
-      for (const uint32_t v : patch.v)
-        if (patch.primitive == 1 && std::abs(mesh.positions[v].x) < 1e-9) {
-          inPlate.insert(v);
-          if (mesh.positions[v].y > 0.1 - 1e-9) onRidge.insert(v);
-        }
+    for (const uint32_t v : verticesOf(mesh, 1))
+      if (std::abs(mesh.positions[v].x) < 1e-9) {
+        inPlate.insert(v);
+        if (mesh.positions[v].y > 0.1 - 1e-9) onRidge.insert(v);
+      }
     EXPECT_GE(inPlate.size(), 5u) << "no vertex of the ridge in the plate's plane: the scene no longer tests it";
     EXPECT_EQ(onRidge.size(), 1u);
     for (const uint32_t v : inPlate)
