@@ -3867,7 +3867,7 @@ Solution solveRadiosity(const Scene& scene, const PatchMesh& mesh, const Radiosi
     }
   }
   iterate(gather, source, reflectance, options, options.relativeResidual, solveFrom, 1, L, gathered, solution);
-  if (hasSky(options)) solution.skyFraction = sky.empty() ? std::vector<double>(n, 0.0) : std::move(sky);
+  solution.skyFraction = std::move(sky);  // under a sky every path above has set it
   if (bilinear) {
     // Power balance: each vertex stands for ∫ N_v dA of the patches around it.
     for (const Patch& patch : mesh.patches) {
