@@ -791,6 +791,12 @@ TEST(BadInput, NoEmitterIsAWarning) {
   const RunResult r = radbake({"bake", f.string(), "-o", (tempDir() / "dark.glb").string(), "--progress", "none"});
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("warning: dark.gltf: no emitter"), std::string::npos) << r.err;
+  // A sky lights it: no warning then (a CAD part is baked so), but the same with a black sky.
+  const RunResult lit = radbake({"bake", f.string(), "-o", (tempDir() / "dark_sky.glb").string(), "--sky", "1", "--progress", "none"});
+  EXPECT_EQ(lit.code, 0) << lit.err;
+  EXPECT_EQ(lit.err.find("no emitter"), std::string::npos) << lit.err;
+  const RunResult black = radbake({"bake", f.string(), "-o", (tempDir() / "dark_black.glb").string(), "--sky", "0", "--progress", "none"});
+  EXPECT_NE(black.err.find("warning: dark.gltf: no emitter"), std::string::npos) << black.err;
 }
 
 // A closed white room (the unit cube seen from inside, ρ 0.5, one quad a face) with a double-sided

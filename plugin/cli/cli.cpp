@@ -234,7 +234,7 @@ void printInfo(const Scene& scene, const Options& options, std::ostream& out) {
         << light.intensity.y << ", " << light.intensity.z
         << (light.type == PunctualLight::Type::kDirectional ? " lx" : " cd") << "\n";
   }
-  if (!scene.hasEmitter()) out << "  no emitter: the bake will be black\n";
+  if (!scene.hasEmitter()) out << "  no emitter: the bake will be black without --sky\n";
   for (const auto& w : scene.warnings) out << "  warning: " << oneLine(w) << "\n";
 }
 
@@ -281,6 +281,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, options.threads);
   Progress progress(options.quiet ? ProgressStyle::kNone : options.progress, err);
 
+  const Vec3 sky = options.sky ? parseSky(*options.sky) : Vec3{};  // a usage error before any work
   const auto t0 = Clock::now();
   progress.stage("import");
   ImportOptions importOptions;
@@ -291,9 +292,10 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   if (!options.probe.empty() && probes.empty())
     scene.warnings.push_back(std::filesystem::path(options.probe).filename().string() +
                              ": no probe points; " + options.probeOut + " holds the header only");
-  if (!scene.hasEmitter())
+  // A sky lights a scene without emitters (the usual way to bake a CAD part): nothing to warn of.
+  if (!scene.hasEmitter() && !(sky.x > 0 || sky.y > 0 || sky.z > 0))
     scene.warnings.push_back(std::filesystem::path(options.input).filename().string() +
-                             ": no emitter (no emissive material): the bake is black");
+                             ": no emitter (no emissive material, no light, no --sky): the bake is black");
   const auto t1 = Clock::now();
   progress.stage("tessellate");
   TessellateOptions tessellateOptions;
@@ -309,7 +311,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   Refinement refined;
   if (options.refine) {
     progress.stage("refine");
-    refined = refineMesh(scene, tessellateOptions, mesh, *options.refine, options.maxPatches, options.sky ? parseSky(*options.sky) : Vec3{},
+    refined = refineMesh(scene, tessellateOptions, mesh, *options.refine, options.maxPatches, sky,
                          [&](double f) { progress.report(f); });
     // Asked-for targets are reported as missed; the default's budget is its time limit, and the
     // balance check below still warns where that leaves the light wrong.
@@ -324,7 +326,7 @@ int bake(const Options& options, std::ostream& out, std::ostream& err) {
   radiosityOptions.method = options.method == "constant" ? Method::kConstant : Method::kBilinear;
   if (options.transport != "exact") radiosityOptions.transport = TransportMode::kHierarchical;
   radiosityOptions.accuracy = options.accuracy;
-  if (options.sky) radiosityOptions.sky = parseSky(*options.sky);
+  radiosityOptions.sky = sky;
   radiosityOptions.progress = [&](double f) { progress.report(f); };
   // The stored transport may take a quarter of the budget; past it the solve runs matrix-free.
   radiosityOptions.matrixMemoryBytes = std::min<uint64_t>(radiosityOptions.matrixMemoryBytes, maxMemory / 4);
