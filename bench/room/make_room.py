@@ -2,9 +2,11 @@
 exporter at its defaults: six walls (a cube with its normals flipped), an emissive ceiling panel,
 two Suzannes with a Subdivision Surface modifier and two UV spheres standing on the floor, Blender's
 default (double-sided) materials. At LEVEL 1 and 64x32 spheres it has the issue's 8,039 faces
-(15,822 triangles); higher levels make it larger for scaling runs.
+(15,822 triangles); higher levels make it larger for scaling runs. SHADING `flat` (Blender's
+default for its primitives: a vertex per face around each point) or `smooth` (Shade Smooth on the
+Suzannes and spheres, as a user does to a subdivided object: one vertex per point).
 
-    blender -b --factory-startup --python-exit-code 1 --python make_room.py -- OUT.glb [LEVEL [SEGMENTS]]
+    blender -b --factory-startup --python-exit-code 1 --python make_room.py -- OUT.glb [LEVEL [SEGMENTS [SHADING]]]
 """
 import os
 import sys
@@ -18,6 +20,9 @@ args = sys.argv[sys.argv.index("--") + 1:]
 out = args[0]
 level = int(args[1]) if len(args) > 1 else 1
 segments = int(args[2]) if len(args) > 2 else 64
+shading = args[3] if len(args) > 3 else "flat"
+if shading not in ("flat", "smooth"):
+    sys.exit("make_room.py: SHADING must be flat or smooth, not %r" % shading)
 bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
@@ -48,8 +53,12 @@ for i, x in enumerate((-1.5, 1.5)):
         mod.render_levels = level
         bpy.ops.object.modifier_apply(modifier=mod.name)
     assign(monkey, material("suzanne %d" % i, (0.8, 0.3 + 0.4 * i, 0.2)))
+    if shading == "smooth":
+        bpy.ops.object.shade_smooth()
     bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=segments // 2, radius=0.5, location=(x, 1.0, 0.5))
     assign(bpy.context.object, material("sphere %d" % i, (0.2, 0.4, 0.8)))
+    if shading == "smooth":
+        bpy.ops.object.shade_smooth()
 
 bpy.ops.export_scene.gltf(filepath=out)
 faces = sum(len(o.data.polygons) for o in bpy.data.objects if o.type == "MESH")
