@@ -470,6 +470,7 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
       double bestOther = offset;  // the same, onto patches not in one of the vertex's own planes
       Vec3 targetOther;
       bool onContact = false;  // on a surface whose plane its own patches straddle
+      bool risesThere = false;  // and a patch of it touching the vertex rises clear of its horizon
       std::vector<Vec3> centres;                       // of the vertex's own patches, from it
       std::vector<std::pair<Vec3, bool>> straddled;  // planes met so far: whether its patches lie on both sides
       for (uint32_t c : near) {
@@ -499,7 +500,12 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
             straddled.push_back({patch.normal, straddles});
           }
           if (straddles) across += patch.normal - r.normal[v] * dot(r.normal[v], patch.normal);
-          onContact |= straddles && np.distance == 0;
+          if (straddles && np.distance == 0) {
+            onContact = true;
+            // "Clear" as kernelReaches has it: a corner above the horizon by more than epsilon
+            // (offset / 10) and further than the rays' lift (offset).
+            for (const Vec3& c : q) risesThere |= dot(r.normal[v], c - r.point[v]) > offset / 10 && length(c - r.point[v]) > offset;
+          }
         }
         if (np.distance > 0 && np.distance <= best) {
           best = np.distance;
@@ -518,7 +524,14 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
       // took none of it: 0.95 of sky where independent rays see at most 0.45 (bench/skycheck).
       // Elsewhere such moves stay: forbidden everywhere, 38 vertices of another engine part came
       // out further from those rays, by up to 0.51 (docs/results.md, "Thirtieth session").
-      if (onContact) best = bestOther, target = targetOther;
+      // Nor is it moved at all where a patch of that surface touching it rises clear above its
+      // horizon (a plate's piece whose edge is the vertex's foot): the move, onto the next piece
+      // of the plate 2.7e-5 beside, left that piece edge-on to the vertex, which took none of
+      // the plate: a shaft's vertex where it enters the plate saw a sky of 0.99 where independent
+      // rays see at most 0.48 (thirty-first session). Not moved on contact at all, another
+      // part's vertex came out 0.42 too bright; never onto the contact surface's plane, two 0.50
+      // and 0.65 (docs/results.md).
+      if (onContact) best = risesThere ? offset : bestOther, target = targetOther;
       // A vertex whose patches lie on both sides of the foot (a floor cell straddling it, or a floor
       // cut along it, whose vertices there may coincide with the wall's) takes the crease limit from
       // the side in front of the wall, perpendicular to the foot in its own tangent plane: the mean

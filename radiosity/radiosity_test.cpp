@@ -1560,6 +1560,22 @@ std::set<uint32_t> verticesOf(const PatchMesh& mesh, int primitive) {
   return out;
 }
 
+// A floor (primitive 0, 2 x 2 about the origin) with a plate standing through it along x = 0
+// (facing -x) in two halves, as a contact cut leaves it, the lower half's top at `lowerTop`, and
+// `extra` primitives (floor material); tessellated at 0.5 without cutting the contacts again.
+PatchMesh plateThroughAFloor(Scene& scene, double lowerTop, const std::vector<std::array<Vec3, 4>>& extra = {}) {
+  scene.materials = {material("floor", 0.5, 0), material("plate", 0.5, 0)};
+  scene.primitives.push_back(quadPrimitive({Vec3{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}}, 0));
+  for (const auto& q : extra) scene.primitives.push_back(quadPrimitive(q, 0));
+  scene.primitives.push_back(quadPrimitive({Vec3{0, -1, -2}, {0, -1, 3}, {0, lowerTop, 3}, {0, lowerTop, -2}}, 1));
+  scene.primitives.push_back(quadPrimitive({Vec3{0, 0, -2}, {0, 0, 3}, {0, 1, 3}, {0, 1, -2}}, 1));
+  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
+  TessellateOptions t;
+  t.maxEdgeLength = 0.5;
+  t.cutContacts = false;
+  return tessellate(scene, t);
+}
+
 // A floor with a column of vertices on the foot of a plate standing through it (facing -x), and
 // beside the floor, 3e-7 away, a coplanar piece of floor that starts 3e-8 behind the plate (a crack,
 // as contact cuts and CAD parts leave them). The floor's vertices on the foot see the plate cover
@@ -1567,17 +1583,7 @@ std::set<uint32_t> verticesOf(const PatchMesh& mesh, int primitive) {
 // the nearest point of the other piece, 3e-8 behind the plate, and took none of it: a sky of 1.
 TEST(Contact, AVertexOnAPlatesFootStaysOnItBesideACrackInItsFloor) {
   Scene scene;
-  scene.materials = {material("floor", 0.5, 0), material("plate", 0.5, 0)};
-  scene.primitives.push_back(quadPrimitive({Vec3{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}}, 0));
-  scene.primitives.push_back(quadPrimitive({Vec3{3e-8, 0, 1 + 3e-7}, {3e-8, 0, 2}, {1, 0, 2}, {1, 0, 1 + 3e-7}}, 0));
-  // The plate in two halves meeting along the floor (as a cut would leave it), not cut again.
-  scene.primitives.push_back(quadPrimitive({Vec3{0, -1, -2}, {0, -1, 3}, {0, 0, 3}, {0, 0, -2}}, 1));  // facing -x
-  scene.primitives.push_back(quadPrimitive({Vec3{0, 0, -2}, {0, 0, 3}, {0, 1, 3}, {0, 1, -2}}, 1));
-  for (size_t p = 0; p < scene.primitives.size(); ++p) scene.primitives[p].primitive = int(p);
-  TessellateOptions t;
-  t.maxEdgeLength = 0.5;
-  t.cutContacts = false;
-  const PatchMesh mesh = tessellate(scene, t);
+  const PatchMesh mesh = plateThroughAFloor(scene, 0, {{Vec3{3e-8, 0, 1 + 3e-7}, {3e-8, 0, 2}, {1, 0, 2}, {1, 0, 1 + 3e-7}}});
   const auto [exact, hier] = bothUnderSky(scene, mesh);
   for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
     bool corner = false;
@@ -1588,6 +1594,27 @@ TEST(Contact, AVertexOnAPlatesFootStaysOnItBesideACrackInItsFloor) {
       EXPECT_NEAR(s->skyFraction[v], 0.5, 0.01) << "floor vertex at z " << x.z << ", transport " << transport;
     }
     EXPECT_TRUE(corner) << "no floor vertex at the crack: the scene no longer tests it";
+  }
+}
+
+// The same foot, the plate's lower half 3e-7 below the floor (a crack in the plate, as contact cuts
+// leave one between the pieces of a face a bore runs through). The floor's vertices on the foot lie
+// on the upper half's edge; each was moved onto the nearest point of the lower half, 3e-7 off that
+// edge, where the upper half is seen edge-on: a sky of 1 where it is 1/2 (on a 2CylinderEngine part
+// a shaft's vertex where it enters a plate: 0.99 where independent rays see at most 0.48).
+TEST(Contact, AVertexOnAPlatesFootStaysOnItAboveACrackInThePlate) {
+  Scene scene;
+  const PatchMesh mesh = plateThroughAFloor(scene, -3e-7);
+  const auto [exact, hier] = bothUnderSky(scene, mesh);
+  for (const auto& [s, transport] : {std::pair{&exact, "exact"}, std::pair{&hier, "hierarchical"}}) {
+    size_t onFoot = 0;
+    for (const uint32_t v : verticesOf(mesh, 0)) {
+      const Vec3& x = mesh.positions[v];
+      if (x.x != 0 || std::abs(x.z) == 1) continue;  // (the floor's corners on the foot see its end)
+      ++onFoot;
+      EXPECT_NEAR(s->skyFraction[v], 0.5, 0.01) << "floor vertex at z " << x.z << ", transport " << transport;
+    }
+    EXPECT_GT(onFoot, 0u) << "no floor vertex on the foot: the scene no longer tests it";
   }
 }
 
