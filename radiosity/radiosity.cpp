@@ -531,7 +531,10 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
       // rays see at most 0.48 (thirty-first session). Not moved on contact at all, another
       // part's vertex came out 0.42 too bright; never onto the contact surface's plane, two 0.50
       // and 0.65 (docs/results.md).
-      if (onContact) best = risesThere ? offset : bestOther, target = targetOther;
+      if (onContact) {
+        best = risesThere ? offset : bestOther;  // offset: no move (its approach is still set below)
+        target = targetOther;
+      }
       // A vertex whose patches lie on both sides of the foot (a floor cell straddling it, or a floor
       // cut along it, whose vertices there may coincide with the wall's) takes the crease limit from
       // the side in front of the wall, perpendicular to the foot in its own tangent plane: the mean
