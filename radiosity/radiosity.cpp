@@ -450,6 +450,13 @@ Receivers receivers(const PatchMesh& mesh, double offset) {
   return r;
 }
 
+// Whether corner c of a polygon rises clear of the horizon of a receiver at p (normal nrm): above it
+// by more than `epsilon` and further from p than the rays' lift (10 `epsilon`). Corners above the
+// horizon only within the lift make a sliver the rays never see (kernelReaches, snapToTouching).
+bool risesClear(const Vec3& p, const Vec3& nrm, const Vec3& c, double epsilon) {
+  return dot(nrm, c - p) > epsilon && length(c - p) > 10 * epsilon;
+}
+
 // Surfaces that touch within rounding (a floor vertex a float ulp beside the foot of a wall standing
 // on it, as Blender's single-precision coordinates leave them): a vertex closer than the rays'
 // `offset` to a patch not its own gathers from the nearest point on that patch instead, where the
@@ -502,9 +509,7 @@ void snapToTouching(const PatchMesh& mesh, const Occlusion& occlusion, Receivers
           if (straddles) across += patch.normal - r.normal[v] * dot(r.normal[v], patch.normal);
           if (straddles && np.distance == 0) {
             onContact = true;
-            // "Clear" as kernelReaches has it: a corner above the horizon by more than epsilon
-            // (offset / 10) and further than the rays' lift (offset).
-            for (const Vec3& c : q) risesThere |= dot(r.normal[v], c - r.point[v]) > offset / 10 && length(c - r.point[v]) > offset;
+            for (const Vec3& c : q) risesThere |= risesClear(r.point[v], r.normal[v], c, occlusion.epsilon());
           }
         }
         if (np.distance > 0 && np.distance <= best) {
@@ -1177,7 +1182,7 @@ bool kernelReaches(const Vec3& p, const Vec3& nrm, const std::array<Vec3, 4>& q,
   for (const Vec3& c : q) {
     const double h = dot(nrm, c - p);
     above |= h > 0;
-    clear |= h > epsilon && length(c - p) > 10 * epsilon;
+    clear |= risesClear(p, nrm, c, epsilon);
     below |= h < -epsilon;
   }
   if (clear || (above && !below)) return true;

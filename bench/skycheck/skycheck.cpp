@@ -247,11 +247,11 @@ int main(int argc, char** argv) try {
   auto seconds = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
   std::printf("%s: %zu vertices, %zu patches, transport %s (%.1f s), %d x %d rays a vertex (%.1f s)\n", args.input.c_str(), n,
               mesh.patches.size(), args.transport.c_str(), seconds(t0, t1), args.rays, args.rays, seconds(t1, t2));
-  const double counted = std::max<double>(1, double(order.size()));
+  const double counted = std::max<double>(1, double(order.size())), rms = std::sqrt(sum2 / counted);
   // A stratified estimate's spread is below the plain one's, sqrt(s (1 - s) / N²) <= 0.5 / N.
   std::printf("sky, solved outside the rays' range, over %zu vertices (%zu not judged): RMS %.5f, mean %+.5f, largest %.5f "
               "(the range's mean width %.5f; one origin's spread at most %.5f)\n",
-              order.size(), unjudged, std::sqrt(sum2 / counted), net / counted, order.empty() ? 0.0 : std::abs(off(order[0])),
+              order.size(), unjudged, rms, net / counted, order.empty() ? 0.0 : std::abs(off(order[0])),
               spread / counted, 0.5 / args.rays);
   for (size_t k = 0; k < std::min<size_t>(args.top, order.size()); ++k) {
     const size_t i = order[k];
@@ -280,7 +280,6 @@ int main(int argc, char** argv) try {
           << ',' << normal[i].y << ',' << normal[i].z << ',' << solution.skyFraction[i] << ',' << traced[i].low << ','
           << traced[i].high << ',' << traced[i].judged << '\n';
   }
-  const double rms = std::sqrt(sum2 / counted);
   if (args.maxRms >= 0 && rms > args.maxRms) {
     std::fprintf(stderr, "skycheck: %s: RMS %.5f above --max-rms %g\n", args.input.c_str(), rms, args.maxRms);
     return 1;
